@@ -1,2 +1,33 @@
-//! placeholder
+//! BugBot's SLAM core: fixed-point pose, log-odds occupancy grid, odometry and the two-tag fix.
+//!
+//! `no_std`, no allocator, no floating point, no I/O and no clock: the caller passes each
+//! tick's time and sensor readings in a [`SensorFrame`] and gets a [`StepReport`] back from
+//! [`Slam::step`]. The firmware and the host simulator call exactly that function, so what
+//! the tests check is what flies.
+//!
+//! Units: positions in micrometres (pose) or millimetres (map, ranges), headings as
+//! wrapping binary angles ([`Angle`]), log odds in Q8.
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
+#![deny(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod angle;
+pub mod frame;
+pub mod grid;
+pub mod odometry;
+pub mod pose;
+pub mod slam;
+pub mod tagfix;
+
+pub use angle::Angle;
+pub use frame::{
+    DepthScan, FlowDelta, GyroRate, SensorFrame, TagDetection, TagDetections, BEAMS, MAX_TAGS,
+};
+pub use grid::{Evidence, GridGeometry, GridMap, LogOdds, Occupancy, OccupancyCounts};
+pub use odometry::OdometryConfig;
+pub use pose::Pose;
+pub use slam::{ConfigError, Counters, DepthConfig, Slam, SlamConfig, Staleness, StepReport};
+pub use tagfix::{CameraConfig, FixConfig, FixOutcome, FixRejection, KnownTag, TagMap};
+
+/// The seed mat's grid: 46 x 46 cells of 5 cm (2 m plus a 15 cm margin each side).
+pub type SeedSlam = Slam<46, 46>;

@@ -1,0 +1,134 @@
+//! What one 100 ms tick hands the core: the latest reading of each sensor, or none.
+//!
+//! `None` means stale: the sensor errored, stalled or was gated out this tick.
+//! The core runs with what it has and counts what was missing.
+
+/// Number of depth beams: the ToF sensor's 8 zone columns across its 45 degree fan.
+pub const BEAMS: usize = 8;
+
+/// Most tag detections one frame can carry.
+pub const MAX_TAGS: usize = 8;
+
+/// Optical flow accumulated over the tick, in sensor counts, robot frame.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FlowDelta {
+    /// Displacement towards the robot's nose, in flow counts.
+    pub forward_counts: i32,
+    /// Displacement towards the robot's right, in flow counts.
+    pub right_counts: i32,
+}
+
+/// The gyro's yaw rate averaged over the tick, bias already removed.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct GyroRate {
+    /// Yaw rate in millidegrees per second; positive turns clockwise seen from above.
+    pub rate_mdps: i32,
+}
+
+/// One depth scan: a range per beam, left (most anticlockwise) to right.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct DepthScan {
+    /// Range along each beam in millimetres; `None` where the zone had no valid return.
+    pub ranges_mm: [Option<u16>; BEAMS],
+}
+
+/// One AprilTag the camera read.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct TagDetection {
+    /// The tag's id (tag36h11).
+    pub id: u16,
+    /// Column of the tag's centre in the picture, in hundredths of a pixel.
+    pub cx_centipx: i32,
+    /// Distance from the camera to the tag, in millimetres.
+    pub distance_mm: u32,
+}
+
+/// Error: a fixed-capacity list is full.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Full;
+
+/// Up to [`MAX_TAGS`] detections, without an allocator.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct TagDetections {
+    items: [TagDetection; MAX_TAGS],
+    len: u8,
+}
+
+impl TagDetections {
+    /// Adds a detection, or says the list is full.
+    pub fn push(&mut self, detection: TagDetection) -> Result<(), Full> {
+        let slot = self.items.get_mut(self.len as usize).ok_or(Full)?;
+        *slot = detection;
+        self.len += 1;
+        Ok(())
+    }
+
+    /// The detections held.
+    pub fn as_slice(&self) -> &[TagDetection] {
+        self.items.get(..self.len as usize).unwrap_or(&[])
+    }
+
+    /// Whether no tag was read.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+}
+
+impl<'a> FromIterator<&'a TagDetection> for TagDetections {
+    /// Collects up to [`MAX_TAGS`] detections; the rest are dropped.
+    fn from_iter<I: IntoIterator<Item = &'a TagDetection>>(iter: I) -> Self {
+        let mut out = TagDetections::default();
+        for d in iter {
+            if out.push(*d).is_err() {
+                break;
+            }
+        }
+        out
+    }
+}
+
+/// Everything one tick of the core needs; built by the firmware or the simulator.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SensorFrame {
+    /// Time since the previous frame, in microseconds.
+    pub dt_us: u32,
+    /// Flow since the previous frame, or `None` if the flow sensor was stale or gated out.
+    pub flow: Option<FlowDelta>,
+    /// Mean yaw rate since the previous frame, or `None` if the gyro was stale.
+    pub gyro: Option<GyroRate>,
+    /// This tick's depth scan, or `None` if there was no new one.
+    pub depth: Option<DepthScan>,
+    /// Tags the camera read in its newest picture (empty when none, or stale).
+    pub tags: TagDetections,
+    /// A pose from outside (a lab's overhead camera, the simulator's truth): when present it
+    /// replaces odometry and tag fixes, and the scan is mapped at it.
+    pub external_pose: Option<crate::Pose>,
+}
+
+impl SensorFrame {
+    /// A frame in which every input is stale.
+    pub const fn empty(dt_us: u32) -> SensorFrame {
+        SensorFrame {
+            dt_us,
+            flow: None,
+            gyro: None,
+            depth: None,
+            tags: TagDetections {
+                items: [TagDetection {
+                    id: 0,
+                    cx_centipx: 0,
+                    distance_mm: 0,
+                }; MAX_TAGS],
+                len: 0,
+            },
+            external_pose: None,
+        }
+    }
+}

@@ -1,0 +1,118 @@
+//! The robot's pose in the map frame, in integers.
+
+use crate::angle::Angle;
+
+/// Micrometres in a millimetre.
+pub const UM_PER_MM: i32 = 1000;
+
+/// Where the robot is and which way it faces, in the map frame.
+///
+/// Position is in micrometres so that a tick's odometry (a few millimetres) is
+/// integrated without rounding drift; `i32` still spans +-2 km.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Pose {
+    /// Position along the mat's x axis, in micrometres.
+    pub x_um: i32,
+    /// Position along the mat's y axis (towards the far wall), in micrometres.
+    pub y_um: i32,
+    /// Heading, clockwise from +y.
+    pub heading: Angle,
+}
+
+impl Pose {
+    /// A pose from millimetres and millidegrees, the units of configuration files.
+    pub const fn from_mm_mdeg(x_mm: i32, y_mm: i32, heading_mdeg: i64) -> Pose {
+        Pose {
+            x_um: x_mm.saturating_mul(UM_PER_MM),
+            y_um: y_mm.saturating_mul(UM_PER_MM),
+            heading: Angle::from_millidegrees(heading_mdeg),
+        }
+    }
+
+    /// Position x rounded to millimetres.
+    pub const fn x_mm(&self) -> i32 {
+        round_div(self.x_um, UM_PER_MM)
+    }
+
+    /// Position y rounded to millimetres.
+    pub const fn y_mm(&self) -> i32 {
+        round_div(self.y_um, UM_PER_MM)
+    }
+
+    /// Straight-line distance to `other` in micrometres (integer square root).
+    pub fn distance_um(&self, other: &Pose) -> u32 {
+        let dx = (self.x_um as i64) - (other.x_um as i64);
+        let dy = (self.y_um as i64) - (other.y_um as i64);
+        isqrt((dx * dx + dy * dy) as u64) as u32
+    }
+}
+
+/// `a / b` rounded half away from zero; `b` must be positive.
+pub(crate) const fn round_div(a: i32, b: i32) -> i32 {
+    if a >= 0 {
+        (a + b / 2) / b
+    } else {
+        (a - b / 2) / b
+    }
+}
+
+/// `a * b >> 16` rounded to nearest, in 64 bits: multiplies a length by a Q16 factor.
+pub(crate) const fn mul_q16(a: i64, b: i32) -> i64 {
+    (a * b as i64 + (1 << 15)) >> 16
+}
+
+/// Integer square root, rounded down.
+pub(crate) fn isqrt(n: u64) -> u64 {
+    if n < 2 {
+        return n;
+    }
+    // Newton's method from an over-estimate converges downwards.
+    let mut x = 1u64 << ((64 - n.leading_zeros()).div_ceil(2));
+    loop {
+        let y = (x + n / x) / 2;
+        if y >= x {
+            return x;
+        }
+        x = y;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn isqrt_exact_and_floor() {
+        for n in [
+            0u64,
+            1,
+            2,
+            3,
+            4,
+            15,
+            16,
+            17,
+            1 << 40,
+            (1 << 40) + 1,
+            u32::MAX as u64,
+        ] {
+            let r = isqrt(n);
+            assert!(r * r <= n && (r + 1) * (r + 1) > n, "isqrt({n}) = {r}");
+        }
+    }
+
+    #[test]
+    fn millimetre_rounding() {
+        let p = Pose {
+            x_um: 1500,
+            y_um: -1500,
+            heading: Angle::ZERO,
+        };
+        assert_eq!((p.x_mm(), p.y_mm()), (2, -2));
+        assert_eq!(
+            Pose::from_mm_mdeg(700, 500, 0).distance_um(&Pose::from_mm_mdeg(1000, 900, 0)),
+            500_000
+        );
+    }
+}

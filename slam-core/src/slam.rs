@@ -1,0 +1,334 @@
+//! The SLAM loop: one pure `step` per tick, called alike by the firmware and the simulator.
+
+use crate::angle::Angle;
+use crate::frame::{DepthScan, SensorFrame, BEAMS};
+use crate::grid::{Evidence, GridGeometry, GridMap};
+use crate::odometry::{self, OdometryConfig};
+use crate::pose::{mul_q16, Pose};
+use crate::tagfix::{self, CameraConfig, FixConfig, FixOutcome, FixRejection, KnownTag, TagMap};
+
+/// The depth sensor's fan and the mapper's range limit.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct DepthConfig {
+    /// Direction of each beam relative to the nose, left to right.
+    pub beam_angles: [Angle; BEAMS],
+    /// Ranges at or beyond this, in millimetres, mark no hit (the seed's 170 cm).
+    pub max_range_mm: u16,
+}
+
+impl DepthConfig {
+    /// Eight beams at the centres of eight equal zones across a 45 degree fan, 170 cm limit.
+    pub const SEED: DepthConfig = DepthConfig {
+        beam_angles: fan(45_000),
+        max_range_mm: 1700,
+    };
+}
+
+/// Beam centres of `BEAMS` equal zones across a fan `width_mdeg` wide, centred on the nose.
+pub const fn fan(width_mdeg: i64) -> [Angle; BEAMS] {
+    let mut out = [Angle::ZERO; BEAMS];
+    let mut i = 0;
+    while i < BEAMS {
+        // Centre of zone i: -w/2 + w * (2i + 1) / (2 * BEAMS).
+        let mdeg = -width_mdeg / 2 + width_mdeg * (2 * i as i64 + 1) / (2 * BEAMS as i64);
+        out[i] = Angle::from_millidegrees(mdeg);
+        i += 1;
+    }
+    out
+}
+
+/// Everything the core needs to know about the robot and its world, fixed at start.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SlamConfig {
+    /// Where the grid lies and how big its cells are.
+    pub geometry: GridGeometry,
+    /// Evidence per beam.
+    pub evidence: Evidence,
+    /// The depth fan.
+    pub depth: DepthConfig,
+    /// Odometry calibration.
+    pub odometry: OdometryConfig,
+    /// Camera intrinsics for tag bearings.
+    pub camera: CameraConfig,
+    /// Tags whose places are known.
+    pub tags: TagMap,
+    /// When a tag fix is believed.
+    pub fix: FixConfig,
+}
+
+/// A configuration the core refuses.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ConfigError {
+    /// Cells must be at least 1 mm.
+    CellSize,
+    /// Evidence must have `hit > 0 > miss`, positive thresholds below a positive clamp.
+    Evidence,
+    /// The camera's focal length must be positive.
+    FocalLength,
+    /// The depth sensor's range limit must be longer than a cell.
+    MaxRange,
+}
+
+impl SlamConfig {
+    /// The seed's world: 5 cm cells with a 15 cm margin round a 2 m mat, tags 11 and 12 on
+    /// the far wall at (70, 195) and (150, 195) cm, and the seed's sensors.
+    pub fn seed_mat() -> SlamConfig {
+        const TAGS: [KnownTag; 2] = [
+            KnownTag {
+                id: 11,
+                x_mm: 700,
+                y_mm: 1950,
+            },
+            KnownTag {
+                id: 12,
+                x_mm: 1500,
+                y_mm: 1950,
+            },
+        ];
+        SlamConfig {
+            geometry: GridGeometry {
+                cell_mm: 50,
+                origin_x_mm: -150,
+                origin_y_mm: -150,
+            },
+            evidence: Evidence::SEED,
+            depth: DepthConfig::SEED,
+            odometry: OdometryConfig::NOMINAL,
+            camera: CameraConfig::SEED,
+            tags: TagMap::new(&TAGS).unwrap_or_default(),
+            fix: FixConfig::SEED,
+        }
+    }
+
+    /// Checks the numbers the core divides by or relies on.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        if self.geometry.cell_mm < 1 {
+            return Err(ConfigError::CellSize);
+        }
+        let e = &self.evidence;
+        if !(e.hit > 0 && e.miss < 0 && e.free_below > 0 && e.occupied_above > 0 && e.clamp > 0) {
+            return Err(ConfigError::Evidence);
+        }
+        if e.free_below >= e.clamp || e.occupied_above >= e.clamp {
+            return Err(ConfigError::Evidence);
+        }
+        if self.camera.focal_centipx <= 0 {
+            return Err(ConfigError::FocalLength);
+        }
+        if (self.depth.max_range_mm as i32) <= self.geometry.cell_mm {
+            return Err(ConfigError::MaxRange);
+        }
+        Ok(())
+    }
+}
+
+/// Running totals since start, for telemetry and tests.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Counters {
+    /// Steps run.
+    pub ticks: u32,
+    /// Tag fixes taken.
+    pub fixes_taken: u32,
+    /// Fixes thrown away because the tags' geometry did not add up.
+    pub fixes_rejected_geometry: u32,
+    /// Fixes thrown away because they disagreed with the prediction.
+    pub fixes_rejected_gate: u32,
+    /// Fixes taken against the gate after too many rejections in a row.
+    pub relocalisations: u32,
+    /// Beams written into the map.
+    pub beams_mapped: u32,
+    /// Beams with no valid return, skipped.
+    pub beams_invalid: u32,
+    /// Ticks without a flow reading (position not advanced).
+    pub flow_stale: u32,
+    /// Ticks without a gyro reading (heading not advanced).
+    pub gyro_stale: u32,
+    /// Ticks without a depth scan (nothing mapped).
+    pub depth_stale: u32,
+}
+
+/// Which inputs a tick lacked.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Staleness {
+    /// No flow this tick.
+    pub flow: bool,
+    /// No gyro this tick.
+    pub gyro: bool,
+    /// No depth scan this tick.
+    pub depth: bool,
+}
+
+/// What one step did.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct StepReport {
+    /// The pose the scan was mapped at: the best estimate after this tick.
+    pub pose: Pose,
+    /// Whether a tag fix was taken, rejected or not tried.
+    pub fix: FixOutcome,
+    /// Inputs missing this tick.
+    pub stale: Staleness,
+    /// Grid cells written this tick.
+    pub cells_written: u32,
+    /// Totals since start.
+    pub counters: Counters,
+}
+
+/// The SLAM state: a pose, a map and the rules to update them.
+#[derive(Clone, Debug)]
+pub struct Slam<const W: usize, const H: usize> {
+    config: SlamConfig,
+    pose: Pose,
+    map: GridMap<W, H>,
+    counters: Counters,
+    gate_rejections_in_a_row: u8,
+}
+
+impl<const W: usize, const H: usize> Slam<W, H> {
+    /// A robot at `start` with an empty map.
+    pub fn new(config: SlamConfig, start: Pose) -> Result<Self, ConfigError> {
+        config.validate()?;
+        Ok(Slam {
+            config,
+            pose: start,
+            map: GridMap::new(config.geometry, config.evidence),
+            counters: Counters::default(),
+            gate_rejections_in_a_row: 0,
+        })
+    }
+
+    /// Starts over in place (no large move on a small stack): empty map, pose `start`.
+    pub fn reset(&mut self, start: Pose) {
+        self.pose = start;
+        self.map.clear();
+        self.counters = Counters::default();
+        self.gate_rejections_in_a_row = 0;
+    }
+
+    /// The current pose estimate.
+    pub fn pose(&self) -> &Pose {
+        &self.pose
+    }
+
+    /// The map so far.
+    pub fn map(&self) -> &GridMap<W, H> {
+        &self.map
+    }
+
+    /// Totals since start.
+    pub fn counters(&self) -> &Counters {
+        &self.counters
+    }
+
+    /// The configuration in use.
+    pub fn config(&self) -> &SlamConfig {
+        &self.config
+    }
+
+    /// One tick: predict the pose from odometry, correct it from known tags, map the scan
+    /// at the corrected pose.
+    ///
+    /// The tag fix comes before mapping (as in the seed) because the camera picture and
+    /// the scan are of the same moment: the corrected pose is the better one to map at.
+    pub fn step(&mut self, frame: &SensorFrame) -> StepReport {
+        self.counters.ticks = self.counters.ticks.wrapping_add(1);
+        let stale = Staleness {
+            flow: frame.flow.is_none(),
+            gyro: frame.gyro.is_none(),
+            depth: frame.depth.is_none(),
+        };
+        self.counters.flow_stale += stale.flow as u32;
+        self.counters.gyro_stale += stale.gyro as u32;
+        self.counters.depth_stale += stale.depth as u32;
+
+        let fix = match frame.external_pose {
+            Some(p) => {
+                self.pose = p;
+                FixOutcome::NotAttempted
+            }
+            None => {
+                let motion =
+                    odometry::motion(frame.flow, frame.gyro, frame.dt_us, &self.config.odometry);
+                self.pose = odometry::apply(&self.pose, &motion);
+                self.correct(frame)
+            }
+        };
+
+        let cells_written = frame.depth.as_ref().map_or(0, |scan| self.map_scan(scan));
+        StepReport {
+            pose: self.pose,
+            fix,
+            stale,
+            cells_written,
+            counters: self.counters,
+        }
+    }
+
+    fn correct(&mut self, frame: &SensorFrame) -> FixOutcome {
+        if !self.config.fix.enabled {
+            return FixOutcome::NotAttempted;
+        }
+        let Some((a, b)) = tagfix::best_pair(frame.tags.as_slice(), &self.config.tags) else {
+            return FixOutcome::NotAttempted;
+        };
+        let fix = match tagfix::two_tag_pose(a, b, &self.config.camera, &self.config.fix) {
+            Ok(fix) => fix,
+            Err(reason) => {
+                self.counters.fixes_rejected_geometry += 1;
+                return FixOutcome::Rejected(reason);
+            }
+        };
+        if !tagfix::within_gate(&fix, &self.pose, &self.config.fix) {
+            self.gate_rejections_in_a_row = self.gate_rejections_in_a_row.saturating_add(1);
+            let limit = self.config.fix.relocalise_after;
+            if limit == 0 || self.gate_rejections_in_a_row <= limit {
+                self.counters.fixes_rejected_gate += 1;
+                return FixOutcome::Rejected(FixRejection::Gate);
+            }
+            self.counters.relocalisations += 1;
+        }
+        self.gate_rejections_in_a_row = 0;
+        self.pose = fix;
+        self.counters.fixes_taken += 1;
+        FixOutcome::Taken
+    }
+
+    fn map_scan(&mut self, scan: &DepthScan) -> u32 {
+        let origin = (self.pose.x_mm(), self.pose.y_mm());
+        let max = self.config.depth.max_range_mm as i32;
+        let cell = self.config.geometry.cell_mm;
+        let mut written = 0;
+        for (range, angle) in scan
+            .ranges_mm
+            .iter()
+            .zip(self.config.depth.beam_angles.iter())
+        {
+            let Some(range) = *range else {
+                self.counters.beams_invalid += 1;
+                continue;
+            };
+            let range = range as i32;
+            let dir = self.pose.heading + *angle;
+            let (s, c) = (dir.sin(), dir.cos());
+            let point = |r: i32| {
+                (
+                    origin.0 + mul_q16(r as i64, s) as i32,
+                    origin.1 + mul_q16(r as i64, c) as i32,
+                )
+            };
+            // Free up to a cell short of where the beam stopped (or of the range limit).
+            let free_end = point((range.min(max) - cell).max(0));
+            let hit = range < max;
+            written += self
+                .map
+                .insert_beam(origin, free_end, point(range.min(max)), hit);
+            self.counters.beams_mapped += 1;
+        }
+        written
+    }
+}
