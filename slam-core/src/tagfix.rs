@@ -152,8 +152,8 @@ fn robot_frame(d: &TagDetection, camera: &CameraConfig) -> (i64, i64, Angle) {
 
 /// The pose two detected known tags imply, or why they cannot give one.
 pub fn two_tag_pose(
-    (a, ta): (&TagDetection, &KnownTag),
-    (b, tb): (&TagDetection, &KnownTag),
+    (a, ta): Sighting<'_>,
+    (b, tb): Sighting<'_>,
     camera: &CameraConfig,
     config: &FixConfig,
 ) -> Result<Pose, FixRejection> {
@@ -189,14 +189,14 @@ pub fn two_tag_pose(
     })
 }
 
+/// A detection paired with the known tag it is of.
+pub type Sighting<'a> = (&'a TagDetection, &'a KnownTag);
+
 /// The two known tags in view with the longest baseline on the map, if two are in view.
 pub fn best_pair<'a>(
     seen: &'a [TagDetection],
     known: &'a TagMap,
-) -> Option<(
-    (&'a TagDetection, &'a KnownTag),
-    (&'a TagDetection, &'a KnownTag),
-)> {
+) -> Option<(Sighting<'a>, Sighting<'a>)> {
     let mut best = None;
     let mut best_len = 0i64;
     for (i, a) in seen.iter().enumerate() {
