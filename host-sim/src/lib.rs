@@ -1,1 +1,41 @@
-//! placeholder
+//! A simulated mat and robot for BugBot: the world, the sensors, the route, and the demo
+//! that runs `slam_core`'s `step` on them exactly as the firmware does.
+//!
+//! # Scenario files
+//!
+//! A scenario is TOML, in millimetres, degrees and seconds (see
+//! `host-sim/scenarios/seed-mat.toml`). Every field is required; unknown fields are refused.
+//!
+//! | table / field | meaning |
+//! |---|---|
+//! | `name`, `seed` | a name for titles; the noise seed (`--seed` overrides) |
+//! | `world.walls` | wall segments `[[x0, y0], [x1, y1]]`: the mat's edges, inner walls, boxes |
+//! | `world.wall_tolerance_mm` | an occupied cell whose centre is this close to a wall is in place |
+//! | `[[world.tags]]` `id`, `x_mm`, `y_mm`, `width_mm`, `facing_deg` | an AprilTag card: the depth sensor sees the card, the camera reads the face |
+//! | `start` `x_mm`, `y_mm`, `heading_deg` | the true start; the core starts believing it |
+//! | `sensors.tof` `fov_deg`, `max_range_mm`, `noise_mm`, `dropout` | 8 beams at the centres of 8 equal zones; zones with no return |
+//! | `sensors.flow` `um_per_count`, `scale_error`, `noise_counts`, `quality` | flow counts at 100 Hz; the firmware's calibration, the true scale error, noise per reading, surface quality |
+//! | `sensors.gyro` `bias_dps`, `scale_error`, `noise_dps` | yaw rate at 200 Hz: residual bias, scale error, noise per sample |
+//! | `sensors.camera` `width_px`, `focal_px`, `fov_deg`, `max_range_mm`, `max_incidence_deg`, `pixel_noise_px`, `distance_noise_mm` | tag detections; tags hidden by walls or seen too obliquely are not read |
+//! | `grid` `cell_mm`, `origin_x_mm`, `origin_y_mm`, `max_range_mm` | the core's grid and the mapper's range limit |
+//! | `[[route]]` `action = "turn"`, `degrees`, `rate_dps` | turn on the spot until the true heading has turned that far |
+//! | `[[route]]` `action = "drive"`, `seconds`, `speed_mm_s` | drive straight for `int(seconds * 10)` ticks |
+//! | `[[route]]` `action = "drive_distance"`, `distance_mm`, `speed_mm_s` | drive straight until that far by truth |
+//! | `[[route]]` `action = "wait"`, `seconds` | stand still |
+//!
+//! A bad value (missing, wrong type, NaN, negative, absurd) is refused with an error that
+//! names the field.
+#![deny(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod picture;
+pub mod record;
+pub mod robot;
+pub mod route;
+pub mod run;
+pub mod scenario;
+pub mod world;
+
+pub use record::RunRecord;
+pub use run::{run, Figures, PoseMode};
+pub use scenario::{Scenario, ScenarioError};

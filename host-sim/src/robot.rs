@@ -1,0 +1,224 @@
+//! The true robot: kinematics, and the sensors as they read the true world.
+//!
+//! This is the one physics of the project: the demos, the tests and (later) the emulated
+//! firmware all read their sensors from here.
+
+use crate::scenario::Scenario;
+use crate::world::{Vec2, World};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use slam_core::{DepthScan, FlowDelta, GyroRate, TagDetection, TagDetections, BEAMS};
+
+/// What the motors are asked to do.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Command {
+    /// Forward speed, millimetres per second.
+    pub speed_mm_s: f64,
+    /// Turn rate, degrees per second, positive clockwise.
+    pub turn_dps: f64,
+}
+
+/// The robot's true pose.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TruePose {
+    /// Millimetres.
+    pub x_mm: f64,
+    /// Millimetres.
+    pub y_mm: f64,
+    /// Degrees clockwise from +y, unwrapped (it keeps counting past 360).
+    pub heading_deg: f64,
+}
+
+/// Physics sub-step: the gyro's 200 Hz sample period, in seconds.
+const SUBSTEP_S: f64 = 0.005;
+/// The flow sensor is read every other sub-step (100 Hz).
+const FLOW_EVERY: u32 = 2;
+
+/// Independent random streams, so that what one sensor draws never shifts another's noise
+/// (the tag run's odometry noise is then the dead-reckoning run's, draw for draw).
+struct Streams {
+    tof: ChaCha8Rng,
+    flow: ChaCha8Rng,
+    gyro: ChaCha8Rng,
+    camera: ChaCha8Rng,
+}
+
+impl Streams {
+    fn new(seed: u64) -> Streams {
+        let stream = |n: u64| ChaCha8Rng::seed_from_u64(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15).wrapping_add(n));
+        Streams { tof: stream(1), flow: stream(2), gyro: stream(3), camera: stream(4) }
+    }
+}
+
+/// A standard normal draw scaled by `sigma` (0 draws nothing).
+fn noise(rng: &mut ChaCha8Rng, sigma: f64) -> f64 {
+    if sigma > 0.0 {
+        Normal::new(0.0, sigma).map_or(0.0, |n| n.sample(rng))
+    } else {
+        0.0
+    }
+}
+
+/// The simulated robot on its mat.
+pub struct Robot {
+    world: World,
+    scenario: Scenario,
+    truth: TruePose,
+    time_s: f64,
+    substeps: u32,
+    rng: Streams,
+    flow_carry: (f64, f64),
+    flow_sum: (i64, i64),
+    flow_pending_mm: (f64, f64),
+    gyro_sum_mdps: i64,
+    gyro_samples: i64,
+}
+
+impl Robot {
+    /// A robot at the scenario's start, noise seeded by `seed`.
+    pub fn new(scenario: &Scenario, seed: u64) -> Robot {
+        Robot {
+            world: World::new(scenario),
+            scenario: scenario.clone(),
+            truth: TruePose { x_mm: scenario.start.x_mm, y_mm: scenario.start.y_mm, heading_deg: scenario.start.heading_deg },
+            time_s: 0.0,
+            substeps: 0,
+            rng: Streams::new(seed),
+            flow_carry: (0.0, 0.0),
+            flow_sum: (0, 0),
+            flow_pending_mm: (0.0, 0.0),
+            gyro_sum_mdps: 0,
+            gyro_samples: 0,
+        }
+    }
+
+    /// The world it drives in.
+    pub fn world(&self) -> &World {
+        &self.world
+    }
+
+    /// Where it really is.
+    pub fn truth(&self) -> TruePose {
+        self.truth
+    }
+
+    /// Simulated time, seconds.
+    pub fn time_s(&self) -> f64 {
+        self.time_s
+    }
+
+    /// Moves the robot for `dt_s` seconds under `command`, sampling the gyro at 200 Hz and
+    /// the flow sensor at 100 Hz on the way.
+    pub fn advance(&mut self, dt_s: f64, command: Command) {
+        let steps = (dt_s / SUBSTEP_S).round().max(0.0) as u32;
+        for _ in 0..steps {
+            let turn = command.turn_dps * SUBSTEP_S;
+            let dist = command.speed_mm_s * SUBSTEP_S;
+            let mid = Vec2::heading(self.truth.heading_deg + turn / 2.0);
+            self.truth.x_mm += mid.x * dist;
+            self.truth.y_mm += mid.y * dist;
+            self.truth.heading_deg += turn;
+            // The sensor sits at the centre of rotation: a turn on the spot moves no floor under it.
+            self.flow_pending_mm.0 += dist;
+            self.time_s += SUBSTEP_S;
+            self.substeps += 1;
+
+            let g = &self.scenario.sensors.gyro;
+            let rate = command.turn_dps * (1.0 + g.scale_error) + g.bias_dps + noise(&mut self.rng.gyro, g.noise_dps);
+            self.gyro_sum_mdps += (rate * 1000.0).round() as i64;
+            self.gyro_samples += 1;
+
+            if self.substeps % FLOW_EVERY == 0 {
+                self.read_flow();
+            }
+        }
+    }
+
+    /// One 100 Hz flow reading: the floor moved since the last one, in counts, with the
+    /// sensor's scale error and noise; the fraction of a count stays in the sensor.
+    fn read_flow(&mut self) {
+        let f = &self.scenario.sensors.flow;
+        let per_mm = 1000.0 / f.um_per_count * (1.0 + f.scale_error);
+        let (fwd, right) = self.flow_pending_mm;
+        self.flow_pending_mm = (0.0, 0.0);
+        let fx = fwd * per_mm + self.flow_carry.0 + noise(&mut self.rng.flow, f.noise_counts);
+        let rx = right * per_mm + self.flow_carry.1 + noise(&mut self.rng.flow, f.noise_counts);
+        let (cf, cr) = (fx.round(), rx.round());
+        self.flow_carry = (fx - cf, rx - cr);
+        self.flow_sum.0 += cf as i64;
+        self.flow_sum.1 += cr as i64;
+    }
+
+    /// Flow and mean gyro rate since the last call, as the firmware's sensor tasks hand
+    /// them to the SLAM tick. Flow is `None` when its surface quality is below `min_quality`.
+    pub fn take_odometry(&mut self, min_quality: u8) -> (Option<FlowDelta>, Option<GyroRate>) {
+        let flow = (self.scenario.sensors.flow.quality >= min_quality).then(|| FlowDelta {
+            forward_counts: self.flow_sum.0.clamp(i32::MIN as i64, i32::MAX as i64) as i32,
+            right_counts: self.flow_sum.1.clamp(i32::MIN as i64, i32::MAX as i64) as i32,
+        });
+        let gyro = (self.gyro_samples > 0).then(|| GyroRate {
+            rate_mdps: (self.gyro_sum_mdps / self.gyro_samples).clamp(i32::MIN as i64, i32::MAX as i64) as i32,
+        });
+        self.flow_sum = (0, 0);
+        self.gyro_sum_mdps = 0;
+        self.gyro_samples = 0;
+        (flow, gyro)
+    }
+
+    /// The depth sensor's 8 beams from the true pose, in millimetres.
+    pub fn read_depth(&mut self) -> DepthScan {
+        let t = &self.scenario.sensors.tof;
+        let origin = Vec2::new(self.truth.x_mm, self.truth.y_mm);
+        let mut scan = DepthScan::default();
+        for (i, slot) in scan.ranges_mm.iter_mut().enumerate() {
+            let zone = t.fov_deg / BEAMS as f64;
+            let angle = -t.fov_deg / 2.0 + zone * (i as f64 + 0.5);
+            let dir = Vec2::heading(self.truth.heading_deg + angle);
+            let hit = self.world.ray(origin, dir);
+            let noise = noise(&mut self.rng.tof, t.noise_mm);
+            let dropped = rand::Rng::gen_bool(&mut self.rng.tof, t.dropout);
+            *slot = match hit {
+                Some(d) if d <= t.max_range_mm && !dropped => Some((d + noise).round().clamp(0.0, u16::MAX as f64) as u16),
+                _ => None,
+            };
+        }
+        scan
+    }
+
+    /// The tags the camera reads from the true pose.
+    pub fn read_tags(&mut self) -> TagDetections {
+        let c = self.scenario.sensors.camera.clone();
+        let origin = Vec2::new(self.truth.x_mm, self.truth.y_mm);
+        let mut out = TagDetections::default();
+        for tag in self.world.tags().to_vec() {
+            let (dx, dy) = (tag.centre.x - origin.x, tag.centre.y - origin.y);
+            let dist = dx.hypot(dy);
+            let bearing = wrap_deg(dx.atan2(dy).to_degrees() - self.truth.heading_deg);
+            // Angle between the tag's face normal and the direction back to the camera.
+            let incidence = ((-dx * tag.normal.x - dy * tag.normal.y) / dist.max(1e-9)).clamp(-1.0, 1.0).acos().to_degrees();
+            let visible = dist <= c.max_range_mm
+                && bearing.abs() <= c.fov_deg / 2.0
+                && incidence <= c.max_incidence_deg
+                && self.world.line_of_sight(origin, tag.centre, tag.id);
+            if !visible {
+                continue;
+            }
+            let cx = c.width_px / 2.0 + c.focal_px * bearing.to_radians().tan() + noise(&mut self.rng.camera, c.pixel_noise_px);
+            let d = dist + noise(&mut self.rng.camera, c.distance_noise_mm);
+            if !(0.0..=c.width_px).contains(&cx) || d <= 0.0 {
+                continue;
+            }
+            let detection = TagDetection { id: tag.id, cx_centipx: (cx * 100.0).round() as i32, distance_mm: d.round() as u32 };
+            if out.push(detection).is_err() {
+                break;
+            }
+        }
+        out
+    }
+}
+
+/// An angle in degrees wrapped into [-180, 180).
+pub fn wrap_deg(deg: f64) -> f64 {
+    (deg + 180.0).rem_euclid(360.0) - 180.0
+}

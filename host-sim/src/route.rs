@@ -1,0 +1,64 @@
+//! The route: steps such as "turn a full circle", "drive 7 s", run tick by tick.
+//!
+//! As in the seed, the route steers by the true heading and position, so every pose
+//! mode drives exactly the same path and only the mapper's pose differs.
+
+use crate::robot::{wrap_deg, Command, TruePose};
+use crate::scenario::RouteStep;
+
+/// Where the route is.
+pub struct Route {
+    steps: Vec<RouteStep>,
+    index: usize,
+    /// Progress in the current step: degrees turned, ticks driven or millimetres covered.
+    progress: f64,
+    last: Option<TruePose>,
+}
+
+impl Route {
+    /// A route at its first step.
+    pub fn new(steps: &[RouteStep]) -> Route {
+        Route { steps: steps.to_vec(), index: 0, progress: 0.0, last: None }
+    }
+
+    /// What the motors should do now; `None` once the route is done.
+    pub fn command(&self) -> Option<Command> {
+        Some(match self.steps.get(self.index)? {
+            RouteStep::Turn { degrees, rate_dps } => Command { speed_mm_s: 0.0, turn_dps: rate_dps.copysign(*degrees) },
+            RouteStep::Drive { speed_mm_s, .. } | RouteStep::DriveDistance { speed_mm_s, .. } => {
+                Command { speed_mm_s: *speed_mm_s, turn_dps: 0.0 }
+            }
+            RouteStep::Wait { .. } => Command::default(),
+        })
+    }
+
+    /// Called after each tick's motion with the true pose; moves on when a step is done.
+    pub fn after_tick(&mut self, truth: TruePose, tick_s: f64) {
+        let last = self.last.replace(truth).unwrap_or(truth);
+        let Some(step) = self.steps.get(self.index) else { return };
+        let done = match step {
+            RouteStep::Turn { degrees, .. } => {
+                self.progress += wrap_deg(truth.heading_deg - last.heading_deg).abs();
+                self.progress >= degrees.abs()
+            }
+            RouteStep::Drive { seconds, .. } | RouteStep::Wait { seconds } => {
+                self.progress += 1.0;
+                // The seed drives `int(seconds * 10)` ticks.
+                self.progress >= (seconds / tick_s + 1e-9).floor().max(1.0)
+            }
+            RouteStep::DriveDistance { distance_mm, .. } => {
+                self.progress += (truth.x_mm - last.x_mm).hypot(truth.y_mm - last.y_mm);
+                self.progress >= *distance_mm
+            }
+        };
+        if done {
+            self.index += 1;
+            self.progress = 0.0;
+        }
+    }
+
+    /// Called once before the first tick with the starting pose.
+    pub fn start(&mut self, truth: TruePose) {
+        self.last = Some(truth);
+    }
+}

@@ -1,0 +1,348 @@
+//! One run of a scenario: the robot drives its route and the core maps, tick by tick.
+
+use crate::record::{CellBelief, MapSnapshot, RunRecord, TickRecord, WorldOutline};
+use crate::robot::{wrap_deg, Robot, TruePose};
+use crate::route::Route;
+use crate::scenario::Scenario;
+use crate::world::{Vec2, World};
+use serde::Serialize;
+use slam_core::{
+    Angle, CameraConfig, DepthConfig, FixOutcome, GridGeometry, KnownTag, Occupancy, OdometryConfig, Pose,
+    SensorFrame, Slam, SlamConfig, TagMap,
+};
+use std::fmt;
+use std::str::FromStr;
+
+/// The SLAM tick, seconds.
+pub const TICK_S: f64 = 0.1;
+/// The flow quality below which the firmware drops a reading.
+pub const MIN_FLOW_QUALITY: u8 = 30;
+/// A route that has not ended after this long is cut off, seconds.
+const MAX_RUN_S: f64 = 3600.0;
+
+/// Which pose the mapper uses: the only thing that differs between the seed's demos.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PoseMode {
+    /// The simulator's truth, as a lab's overhead camera would give it.
+    Truth,
+    /// Odometry alone.
+    DeadReckoning,
+    /// Odometry corrected by two-tag fixes.
+    Tags,
+}
+
+impl PoseMode {
+    /// The name used on the command line and in records.
+    pub fn name(self) -> &'static str {
+        match self {
+            PoseMode::Truth => "truth",
+            PoseMode::DeadReckoning => "dead-reckoning",
+            PoseMode::Tags => "tags",
+        }
+    }
+}
+
+impl FromStr for PoseMode {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "truth" => Ok(PoseMode::Truth),
+            "dead-reckoning" => Ok(PoseMode::DeadReckoning),
+            "tags" => Ok(PoseMode::Tags),
+            other => Err(format!("unknown pose mode `{other}`: expected truth, dead-reckoning or tags")),
+        }
+    }
+}
+
+/// The figures the seed quotes, and a few more.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Figures {
+    /// Ticks run.
+    pub ticks: usize,
+    /// Simulated seconds.
+    pub duration_s: f64,
+    /// Share of the grid the map has an opinion about, percent.
+    pub known_pct: f64,
+    /// Cells believed free.
+    pub free: u32,
+    /// Cells believed occupied.
+    pub occupied: u32,
+    /// Occupied cells on no real wall or tag.
+    pub out_of_place: u32,
+    /// Tag fixes taken.
+    pub fixes: u32,
+    /// Tag fixes rejected (geometry or gate).
+    pub fixes_rejected: u32,
+    /// Time of the first fix, seconds; `None` if there was none.
+    pub first_fix_s: Option<f64>,
+    /// Position error at the end, centimetres.
+    pub final_error_cm: f64,
+    /// Largest position error from the first fix on, centimetres (0 without a fix).
+    pub max_error_after_first_fix_cm: f64,
+    /// Heading error at the end, degrees (absolute).
+    pub final_heading_error_deg: f64,
+    /// Largest heading error from the first fix on, degrees (absolute; 0 without a fix).
+    pub max_heading_error_after_first_fix_deg: f64,
+    /// Largest position error over the whole run, centimetres.
+    pub max_error_cm: f64,
+}
+
+/// Why a run could not start.
+#[derive(Debug, PartialEq, Eq)]
+pub enum RunError {
+    /// The scenario's grid does not fit any grid size the core is built with.
+    GridTooLarge {
+        /// Cells needed across.
+        columns: i64,
+        /// Cells needed up.
+        rows: i64,
+    },
+    /// The core refused the configuration.
+    Config(slam_core::ConfigError),
+}
+
+impl fmt::Display for RunError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            RunError::GridTooLarge { columns, rows } => {
+                write!(f, "the world needs a {columns} x {rows} grid; the largest built in is 206 x 206")
+            }
+            RunError::Config(e) => write!(f, "the core refused the configuration: {e:?}"),
+        }
+    }
+}
+
+impl std::error::Error for RunError {}
+
+/// The core's configuration for a scenario: what the robot's firmware would be flashed with.
+pub fn slam_config(s: &Scenario) -> SlamConfig {
+    let tags: Vec<KnownTag> = s
+        .world
+        .tags
+        .iter()
+        .map(|t| KnownTag { id: t.id, x_mm: t.x_mm.round() as i32, y_mm: t.y_mm.round() as i32 })
+        .collect();
+    let mut config = SlamConfig::seed_mat();
+    config.geometry = GridGeometry { cell_mm: s.grid.cell_mm, origin_x_mm: s.grid.origin_x_mm, origin_y_mm: s.grid.origin_y_mm };
+    config.depth = DepthConfig {
+        beam_angles: slam_core::slam::fan((s.sensors.tof.fov_deg * 1000.0).round() as i64),
+        max_range_mm: s.grid.max_range_mm,
+    };
+    config.odometry = OdometryConfig {
+        flow_um_per_count_q16: (s.sensors.flow.um_per_count * 65536.0).round() as i32,
+        gyro_scale_ppm: 0,
+    };
+    config.camera = CameraConfig {
+        focal_centipx: (s.sensors.camera.focal_px * 100.0).round() as i32,
+        centre_centipx: (s.sensors.camera.width_px * 50.0).round() as i32,
+    };
+    config.tags = TagMap::new(&tags).unwrap_or_default();
+    config
+}
+
+/// A true pose in the core's integer units.
+pub fn to_core_pose(t: &TruePose) -> Pose {
+    Pose {
+        x_um: (t.x_mm * 1000.0).round() as i32,
+        y_um: (t.y_mm * 1000.0).round() as i32,
+        heading: Angle::from_millidegrees((t.heading_deg * 1000.0).round() as i64),
+    }
+}
+
+/// What a run produced.
+pub struct RunOutput {
+    /// Per-tick rows, the final map and the world.
+    pub record: RunRecord,
+    /// The summary figures.
+    pub figures: Figures,
+    /// Every frame handed to `step`, in order: replayed by the benchmark.
+    pub frames: Vec<SensorFrame>,
+}
+
+/// Runs a scenario to the end of its route.
+pub fn run(scenario: &Scenario, mode: PoseMode, seed: u64) -> Result<RunOutput, RunError> {
+    let cell = scenario.grid.cell_mm.max(1) as f64;
+    let (mut max_x, mut max_y) = (f64::MIN, f64::MIN);
+    for p in scenario.world.walls.iter().flatten() {
+        max_x = max_x.max(p[0]);
+        max_y = max_y.max(p[1]);
+    }
+    // The grid must reach a cell past the furthest wall.
+    let columns = ((max_x - scenario.grid.origin_x_mm as f64) / cell).ceil() as i64 + 1;
+    let rows = ((max_y - scenario.grid.origin_y_mm as f64) / cell).ceil() as i64 + 1;
+    if columns <= 46 && rows <= 46 {
+        run_sized::<46, 46>(scenario, mode, seed)
+    } else if columns <= 206 && rows <= 206 {
+        run_sized::<206, 206>(scenario, mode, seed)
+    } else {
+        Err(RunError::GridTooLarge { columns, rows })
+    }
+}
+
+fn run_sized<const W: usize, const H: usize>(
+    scenario: &Scenario,
+    mode: PoseMode,
+    seed: u64,
+) -> Result<RunOutput, RunError> {
+    let mut config = slam_config(scenario);
+    config.fix.enabled = mode == PoseMode::Tags;
+    let mut robot = Robot::new(scenario, seed);
+    let start = to_core_pose(&robot.truth());
+    let mut slam: Box<Slam<W, H>> = Box::new(Slam::new(config, start).map_err(RunError::Config)?);
+    let real = real_mask::<W, H>(robot.world(), &config.geometry);
+
+    let mut route = Route::new(&scenario.route);
+    route.start(robot.truth());
+    let mut ticks = Vec::new();
+    let mut frames = Vec::new();
+    let mut out_of_place_pct = 0.0;
+    let mut first_fix: Option<usize> = None;
+    let dt_us = (TICK_S * 1e6) as u32;
+    while let Some(command) = route.command() {
+        if robot.time_s() > MAX_RUN_S {
+            break;
+        }
+        let truth = robot.truth();
+        let (flow, gyro) = robot.take_odometry(MIN_FLOW_QUALITY);
+        let frame = SensorFrame {
+            dt_us,
+            flow,
+            gyro,
+            depth: Some(robot.read_depth()),
+            tags: robot.read_tags(),
+            external_pose: (mode == PoseMode::Truth).then(|| to_core_pose(&truth)),
+        };
+        let report = slam.step(&frame);
+        frames.push(frame);
+        let fix_taken = report.fix == FixOutcome::Taken;
+        if fix_taken && first_fix.is_none() {
+            first_fix = Some(ticks.len());
+        }
+        let est = report.pose;
+        let (ex, ey) = (est.x_um as f64 / 1000.0, est.y_um as f64 / 1000.0);
+        let est_heading = est.heading.to_microdegrees() as f64 / 1e6;
+        if ticks.len() % 10 == 0 {
+            out_of_place_pct = map_counts(slam.map(), &real).out_of_place_pct();
+        }
+        let counts = slam.map().counts();
+        ticks.push(TickRecord {
+            t_s: ticks.len() as f64 * TICK_S,
+            truth_mm: (truth.x_mm, truth.y_mm),
+            truth_heading_deg: wrap_deg(truth.heading_deg),
+            estimate_mm: (ex, ey),
+            estimate_heading_deg: est_heading,
+            known_pct: 100.0 * (counts.free + counts.occupied) as f64 / (W * H) as f64,
+            error_cm: (ex - truth.x_mm).hypot(ey - truth.y_mm) / 10.0,
+            heading_error_deg: wrap_deg(est_heading - truth.heading_deg),
+            out_of_place_pct,
+            fix_taken,
+        });
+        robot.advance(TICK_S, command);
+        route.after_tick(robot.truth(), TICK_S);
+    }
+
+    let final_counts = map_counts(slam.map(), &real);
+    if let Some(last) = ticks.last_mut() {
+        last.out_of_place_pct = final_counts.out_of_place_pct();
+    }
+    let counters = slam.counters();
+    let after = |f: fn(&TickRecord) -> f64| {
+        first_fix.map_or(0.0, |i| ticks.iter().skip(i).map(f).fold(0.0, f64::max))
+    };
+    let last = ticks.last();
+    let figures = Figures {
+        ticks: ticks.len(),
+        duration_s: ticks.len() as f64 * TICK_S,
+        known_pct: 100.0 * (final_counts.free + final_counts.occupied) as f64 / (W * H) as f64,
+        free: final_counts.free,
+        occupied: final_counts.occupied,
+        out_of_place: final_counts.out_of_place,
+        fixes: counters.fixes_taken,
+        fixes_rejected: counters.fixes_rejected_gate + counters.fixes_rejected_geometry,
+        first_fix_s: first_fix.map(|i| i as f64 * TICK_S),
+        final_error_cm: last.map_or(0.0, |t| t.error_cm),
+        max_error_after_first_fix_cm: after(|t| t.error_cm),
+        final_heading_error_deg: last.map_or(0.0, |t| t.heading_error_deg.abs()),
+        max_heading_error_after_first_fix_deg: after(|t| t.heading_error_deg.abs()),
+        max_error_cm: ticks.iter().map(|t| t.error_cm).fold(0.0, f64::max),
+    };
+    let record = RunRecord {
+        scenario: scenario.name.clone(),
+        pose_mode: mode.name().to_string(),
+        ticks,
+        map: snapshot(slam.map(), &real),
+        world: outline(robot.world()),
+    };
+    Ok(RunOutput { record, figures, frames })
+}
+
+/// For each cell, whether its centre lies on something real.
+fn real_mask<const W: usize, const H: usize>(world: &World, g: &GridGeometry) -> Vec<bool> {
+    (0..H as i32)
+        .flat_map(|r| (0..W as i32).map(move |c| (c, r)))
+        .map(|(c, r)| {
+            let (x, y) = cell_centre(g, c, r);
+            world.is_real(Vec2::new(x, y))
+        })
+        .collect()
+}
+
+fn cell_centre(g: &GridGeometry, c: i32, r: i32) -> (f64, f64) {
+    let cell = g.cell_mm as f64;
+    (g.origin_x_mm as f64 + (c as f64 + 0.5) * cell, g.origin_y_mm as f64 + (r as f64 + 0.5) * cell)
+}
+
+struct MapCounts {
+    free: u32,
+    occupied: u32,
+    out_of_place: u32,
+}
+
+impl MapCounts {
+    fn out_of_place_pct(&self) -> f64 {
+        100.0 * self.out_of_place as f64 / self.occupied.max(1) as f64
+    }
+}
+
+fn map_counts<const W: usize, const H: usize>(map: &slam_core::GridMap<W, H>, real: &[bool]) -> MapCounts {
+    let mut m = MapCounts { free: 0, occupied: 0, out_of_place: 0 };
+    for (i, real) in real.iter().enumerate() {
+        match map.occupancy((i % W) as i32, (i / W) as i32) {
+            Occupancy::Free => m.free += 1,
+            Occupancy::Occupied => {
+                m.occupied += 1;
+                m.out_of_place += u32::from(!real);
+            }
+            Occupancy::Unknown => {}
+        }
+    }
+    m
+}
+
+fn snapshot<const W: usize, const H: usize>(map: &slam_core::GridMap<W, H>, real: &[bool]) -> MapSnapshot {
+    let g = map.geometry();
+    let cells: Vec<CellBelief> = (0..W * H)
+        .map(|i| match map.occupancy((i % W) as i32, (i / W) as i32) {
+            Occupancy::Free => CellBelief::Free,
+            Occupancy::Occupied => CellBelief::Occupied,
+            Occupancy::Unknown => CellBelief::Unknown,
+        })
+        .collect();
+    let out_of_place = cells.iter().zip(real).map(|(c, r)| *c == CellBelief::Occupied && !r).collect();
+    MapSnapshot {
+        width: W,
+        height: H,
+        cell_mm: g.cell_mm as f64,
+        origin_x_mm: g.origin_x_mm as f64,
+        origin_y_mm: g.origin_y_mm as f64,
+        cells,
+        out_of_place,
+    }
+}
+
+fn outline(world: &World) -> WorldOutline {
+    WorldOutline {
+        walls: world.walls().iter().filter(|w| w.tag.is_none()).map(|w| ((w.a.x, w.a.y), (w.b.x, w.b.y))).collect(),
+        tags: world.tags().iter().map(|t| (t.id, (t.centre.x, t.centre.y))).collect(),
+    }
+}

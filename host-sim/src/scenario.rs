@@ -1,0 +1,350 @@
+//! Scenario files: the world, the start, the sensors, the route and the random seed.
+//!
+//! Parsed from TOML with `serde`, then checked field by field: every number must be
+//! finite and inside a range that makes physical sense, and the error names the field.
+//! See the crate documentation for the schema.
+
+use serde::Deserialize;
+use std::fmt;
+use std::path::Path;
+
+/// A wall segment, `[[x0, y0], [x1, y1]]` in millimetres.
+pub type Segment = [[f64; 2]; 2];
+
+/// A whole scenario.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    /// A short name, used in titles.
+    pub name: String,
+    /// Seed of the random noise (`--seed` overrides it).
+    pub seed: u64,
+    /// The mat, its walls and its tags.
+    pub world: World,
+    /// The robot's true starting pose; the core starts believing it.
+    pub start: Start,
+    /// Sensor models.
+    pub sensors: Sensors,
+    /// The grid the core maps into.
+    pub grid: Grid,
+    /// What the robot does, in order.
+    pub route: Vec<RouteStep>,
+}
+
+/// The world: walls and tags.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct World {
+    /// Every wall and box edge as a segment in millimetres.
+    pub walls: Vec<Segment>,
+    /// AprilTags on cards.
+    pub tags: Vec<Tag>,
+    /// An occupied cell whose centre is within this of a wall is "in place", millimetres.
+    pub wall_tolerance_mm: f64,
+}
+
+/// An AprilTag card standing in the world.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Tag {
+    /// The tag's id; the core knows its place.
+    pub id: u16,
+    /// Centre x, millimetres.
+    pub x_mm: f64,
+    /// Centre y, millimetres.
+    pub y_mm: f64,
+    /// Width of the card, millimetres; the depth sensor sees it as a wall.
+    pub width_mm: f64,
+    /// Direction the printed face points, degrees clockwise from +y (180: towards -y).
+    pub facing_deg: f64,
+}
+
+/// The robot's start.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Start {
+    /// Millimetres.
+    pub x_mm: f64,
+    /// Millimetres.
+    pub y_mm: f64,
+    /// Degrees clockwise from +y.
+    pub heading_deg: f64,
+}
+
+/// All sensor models.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Sensors {
+    /// The 8-zone time-of-flight depth sensor.
+    pub tof: Tof,
+    /// The optical-flow sensor.
+    pub flow: Flow,
+    /// The gyro.
+    pub gyro: Gyro,
+    /// The tag camera.
+    pub camera: Camera,
+}
+
+/// Time-of-flight depth sensor: 8 beams at the centres of 8 equal zones across its fan.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Tof {
+    /// Width of the fan, degrees (45 for the seed).
+    pub fov_deg: f64,
+    /// Beyond this, millimetres, a zone reports no target.
+    pub max_range_mm: f64,
+    /// Standard deviation of range noise, millimetres.
+    pub noise_mm: f64,
+    /// Chance that a zone has no valid return in a frame, 0 to 1.
+    pub dropout: f64,
+}
+
+/// Optical flow under the robot's centre.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Flow {
+    /// What the firmware believes one count is, micrometres (its calibration).
+    pub um_per_count: f64,
+    /// The sensor's true scale relative to that belief, e.g. -0.03 reads 3 % short.
+    pub scale_error: f64,
+    /// Standard deviation of noise per 10 ms reading, counts.
+    pub noise_counts: f64,
+    /// Surface quality reported (0 to 255); below the core's gate the reading is dropped.
+    pub quality: u8,
+}
+
+/// Gyro, yaw axis.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Gyro {
+    /// Bias left after the start-up calibration, degrees per second.
+    pub bias_dps: f64,
+    /// True scale relative to nominal, e.g. 0.008 reads 0.8 % high.
+    pub scale_error: f64,
+    /// Standard deviation of noise per 5 ms sample, degrees per second.
+    pub noise_dps: f64,
+}
+
+/// The tag camera co-processor.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Camera {
+    /// Picture width, pixels.
+    pub width_px: f64,
+    /// Focal length, pixels.
+    pub focal_px: f64,
+    /// Horizontal field of view, degrees.
+    pub fov_deg: f64,
+    /// Tags further than this are not read, millimetres.
+    pub max_range_mm: f64,
+    /// Tags seen more than this far off their face normal are not read, degrees.
+    pub max_incidence_deg: f64,
+    /// Standard deviation of the centre column, pixels.
+    pub pixel_noise_px: f64,
+    /// Standard deviation of the distance, millimetres.
+    pub distance_noise_mm: f64,
+}
+
+/// The core's grid.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Grid {
+    /// Cell side, millimetres.
+    pub cell_mm: i32,
+    /// Map x of the grid's lower-left corner, millimetres.
+    pub origin_x_mm: i32,
+    /// Map y of the grid's lower-left corner, millimetres.
+    pub origin_y_mm: i32,
+    /// The mapper ignores hits at or beyond this range, millimetres (170 cm in the seed).
+    pub max_range_mm: u16,
+}
+
+/// One step of the route.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(tag = "action", rename_all = "snake_case", deny_unknown_fields)]
+pub enum RouteStep {
+    /// Turn on the spot until the true heading has turned `degrees` (the seed steers by truth).
+    Turn {
+        /// How far, degrees; positive clockwise.
+        degrees: f64,
+        /// How fast, degrees per second (positive).
+        rate_dps: f64,
+    },
+    /// Drive straight for a time.
+    Drive {
+        /// How long, seconds.
+        seconds: f64,
+        /// How fast, millimetres per second.
+        speed_mm_s: f64,
+    },
+    /// Drive straight for a distance (by truth).
+    DriveDistance {
+        /// How far, millimetres (positive).
+        distance_mm: f64,
+        /// How fast, millimetres per second (positive).
+        speed_mm_s: f64,
+    },
+    /// Stand still.
+    Wait {
+        /// How long, seconds.
+        seconds: f64,
+    },
+}
+
+/// Why a scenario was refused.
+#[derive(Debug)]
+pub enum ScenarioError {
+    /// The file could not be read.
+    Io(std::io::Error),
+    /// Not valid TOML, or a field missing or of the wrong type (toml names it).
+    Parse(String),
+    /// A field whose value makes no sense.
+    Invalid {
+        /// Dotted path of the field, e.g. `sensors.gyro.noise_dps`.
+        field: String,
+        /// What is wrong with it.
+        problem: String,
+    },
+}
+
+impl fmt::Display for ScenarioError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ScenarioError::Io(e) => write!(f, "cannot read scenario: {e}"),
+            ScenarioError::Parse(e) => write!(f, "scenario is not valid: {e}"),
+            ScenarioError::Invalid { field, problem } => write!(f, "scenario field `{field}`: {problem}"),
+        }
+    }
+}
+
+impl std::error::Error for ScenarioError {}
+
+/// Accumulates the first invalid field.
+struct Check(Result<(), ScenarioError>);
+
+impl Check {
+    fn range(&mut self, field: &str, value: f64, lo: f64, hi: f64) {
+        if self.0.is_err() {
+            return;
+        }
+        if !value.is_finite() {
+            self.fail(field, format!("must be a finite number, got {value}"));
+        } else if value < lo || value > hi {
+            self.fail(field, format!("must be between {lo} and {hi}, got {value}"));
+        }
+    }
+
+    fn positive(&mut self, field: &str, value: f64, hi: f64) {
+        self.range(field, value, 0.0, hi);
+        if self.0.is_ok() && value <= 0.0 {
+            self.fail(field, format!("must be greater than 0, got {value}"));
+        }
+    }
+
+    fn fail(&mut self, field: &str, problem: String) {
+        if self.0.is_ok() {
+            self.0 = Err(ScenarioError::Invalid { field: field.to_string(), problem });
+        }
+    }
+}
+
+/// Largest coordinate or length a scenario may use, millimetres (a 100 m hall).
+const MAX_MM: f64 = 100_000.0;
+
+impl Scenario {
+    /// Reads and checks a scenario file.
+    pub fn load(path: &Path) -> Result<Scenario, ScenarioError> {
+        let text = std::fs::read_to_string(path).map_err(ScenarioError::Io)?;
+        Scenario::parse(&text)
+    }
+
+    /// Parses and checks scenario text.
+    pub fn parse(text: &str) -> Result<Scenario, ScenarioError> {
+        let scenario: Scenario = toml::from_str(text).map_err(|e| ScenarioError::Parse(e.to_string()))?;
+        scenario.validate()?;
+        Ok(scenario)
+    }
+
+    /// Checks every number.
+    pub fn validate(&self) -> Result<(), ScenarioError> {
+        let mut c = Check(Ok(()));
+        if self.world.walls.is_empty() {
+            c.fail("world.walls", "needs at least one wall".into());
+        }
+        for (i, w) in self.world.walls.iter().enumerate() {
+            for (j, p) in w.iter().enumerate() {
+                c.range(&format!("world.walls[{i}][{j}][0]"), p[0], -MAX_MM, MAX_MM);
+                c.range(&format!("world.walls[{i}][{j}][1]"), p[1], -MAX_MM, MAX_MM);
+            }
+            if c.0.is_ok() && w[0] == w[1] {
+                c.fail(&format!("world.walls[{i}]"), "has zero length".into());
+            }
+        }
+        c.positive("world.wall_tolerance_mm", self.world.wall_tolerance_mm, 1000.0);
+        for (i, t) in self.world.tags.iter().enumerate() {
+            let f = |name: &str| format!("world.tags[{i}].{name}");
+            c.range(&f("x_mm"), t.x_mm, -MAX_MM, MAX_MM);
+            c.range(&f("y_mm"), t.y_mm, -MAX_MM, MAX_MM);
+            c.positive(&f("width_mm"), t.width_mm, 2000.0);
+            c.range(&f("facing_deg"), t.facing_deg, -360.0, 360.0);
+            if self.world.tags.iter().take(i).any(|o| o.id == t.id) {
+                c.fail(&f("id"), format!("tag id {} appears twice", t.id));
+            }
+        }
+        if self.world.tags.len() > slam_core::tagfix::MAX_KNOWN_TAGS {
+            c.fail("world.tags", format!("at most {} tags", slam_core::tagfix::MAX_KNOWN_TAGS));
+        }
+        c.range("start.x_mm", self.start.x_mm, -MAX_MM, MAX_MM);
+        c.range("start.y_mm", self.start.y_mm, -MAX_MM, MAX_MM);
+        c.range("start.heading_deg", self.start.heading_deg, -360.0, 360.0);
+
+        let s = &self.sensors;
+        c.positive("sensors.tof.fov_deg", s.tof.fov_deg, 180.0);
+        c.positive("sensors.tof.max_range_mm", s.tof.max_range_mm, 65_000.0);
+        c.range("sensors.tof.noise_mm", s.tof.noise_mm, 0.0, 1000.0);
+        c.range("sensors.tof.dropout", s.tof.dropout, 0.0, 1.0);
+        c.positive("sensors.flow.um_per_count", s.flow.um_per_count, 100_000.0);
+        c.range("sensors.flow.scale_error", s.flow.scale_error, -0.5, 0.5);
+        c.range("sensors.flow.noise_counts", s.flow.noise_counts, 0.0, 100.0);
+        c.range("sensors.gyro.bias_dps", s.gyro.bias_dps, -100.0, 100.0);
+        c.range("sensors.gyro.scale_error", s.gyro.scale_error, -0.5, 0.5);
+        c.range("sensors.gyro.noise_dps", s.gyro.noise_dps, 0.0, 100.0);
+        c.positive("sensors.camera.width_px", s.camera.width_px, 10_000.0);
+        c.positive("sensors.camera.focal_px", s.camera.focal_px, 10_000.0);
+        c.positive("sensors.camera.fov_deg", s.camera.fov_deg, 179.0);
+        c.positive("sensors.camera.max_range_mm", s.camera.max_range_mm, 65_000.0);
+        c.positive("sensors.camera.max_incidence_deg", s.camera.max_incidence_deg, 90.0);
+        c.range("sensors.camera.pixel_noise_px", s.camera.pixel_noise_px, 0.0, 100.0);
+        c.range("sensors.camera.distance_noise_mm", s.camera.distance_noise_mm, 0.0, 1000.0);
+
+        c.range("grid.cell_mm", self.grid.cell_mm as f64, 5.0, 1000.0);
+        c.range("grid.origin_x_mm", self.grid.origin_x_mm as f64, -MAX_MM, MAX_MM);
+        c.range("grid.origin_y_mm", self.grid.origin_y_mm as f64, -MAX_MM, MAX_MM);
+        if c.0.is_ok() && (self.grid.max_range_mm as i32) <= self.grid.cell_mm {
+            c.fail("grid.max_range_mm", "must be longer than one cell".into());
+        }
+
+        if self.route.is_empty() {
+            c.fail("route", "needs at least one step".into());
+        }
+        for (i, step) in self.route.iter().enumerate() {
+            let f = |name: &str| format!("route[{i}].{name}");
+            match step {
+                RouteStep::Turn { degrees, rate_dps } => {
+                    c.range(&f("degrees"), *degrees, -36_000.0, 36_000.0);
+                    c.positive(&f("rate_dps"), *rate_dps, 1000.0);
+                }
+                RouteStep::Drive { seconds, speed_mm_s } => {
+                    c.positive(&f("seconds"), *seconds, 3600.0);
+                    c.range(&f("speed_mm_s"), *speed_mm_s, -2000.0, 2000.0);
+                }
+                RouteStep::DriveDistance { distance_mm, speed_mm_s } => {
+                    c.positive(&f("distance_mm"), *distance_mm, MAX_MM);
+                    c.positive(&f("speed_mm_s"), *speed_mm_s, 2000.0);
+                }
+                RouteStep::Wait { seconds } => c.positive(&f("seconds"), *seconds, 3600.0),
+            }
+        }
+        c.0
+    }
+}
