@@ -46,8 +46,15 @@ struct Streams {
 
 impl Streams {
     fn new(seed: u64) -> Streams {
-        let stream = |n: u64| ChaCha8Rng::seed_from_u64(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15).wrapping_add(n));
-        Streams { tof: stream(1), flow: stream(2), gyro: stream(3), camera: stream(4) }
+        let stream = |n: u64| {
+            ChaCha8Rng::seed_from_u64(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15).wrapping_add(n))
+        };
+        Streams {
+            tof: stream(1),
+            flow: stream(2),
+            gyro: stream(3),
+            camera: stream(4),
+        }
     }
 }
 
@@ -81,7 +88,11 @@ impl Robot {
         Robot {
             world: World::new(scenario),
             scenario: scenario.clone(),
-            truth: TruePose { x_mm: scenario.start.x_mm, y_mm: scenario.start.y_mm, heading_deg: scenario.start.heading_deg },
+            truth: TruePose {
+                x_mm: scenario.start.x_mm,
+                y_mm: scenario.start.y_mm,
+                heading_deg: scenario.start.heading_deg,
+            },
             time_s: 0.0,
             substeps: 0,
             rng: Streams::new(seed),
@@ -125,11 +136,13 @@ impl Robot {
             self.substeps += 1;
 
             let g = &self.scenario.sensors.gyro;
-            let rate = command.turn_dps * (1.0 + g.scale_error) + g.bias_dps + noise(&mut self.rng.gyro, g.noise_dps);
+            let rate = command.turn_dps * (1.0 + g.scale_error)
+                + g.bias_dps
+                + noise(&mut self.rng.gyro, g.noise_dps);
             self.gyro_sum_mdps += (rate * 1000.0).round() as i64;
             self.gyro_samples += 1;
 
-            if self.substeps % FLOW_EVERY == 0 {
+            if self.substeps.is_multiple_of(FLOW_EVERY) {
                 self.read_flow();
             }
         }
@@ -158,7 +171,8 @@ impl Robot {
             right_counts: self.flow_sum.1.clamp(i32::MIN as i64, i32::MAX as i64) as i32,
         });
         let gyro = (self.gyro_samples > 0).then(|| GyroRate {
-            rate_mdps: (self.gyro_sum_mdps / self.gyro_samples).clamp(i32::MIN as i64, i32::MAX as i64) as i32,
+            rate_mdps: (self.gyro_sum_mdps / self.gyro_samples)
+                .clamp(i32::MIN as i64, i32::MAX as i64) as i32,
         });
         self.flow_sum = (0, 0);
         self.gyro_sum_mdps = 0;
@@ -179,7 +193,9 @@ impl Robot {
             let noise = noise(&mut self.rng.tof, t.noise_mm);
             let dropped = rand::Rng::gen_bool(&mut self.rng.tof, t.dropout);
             *slot = match hit {
-                Some(d) if d <= t.max_range_mm && !dropped => Some((d + noise).round().clamp(0.0, u16::MAX as f64) as u16),
+                Some(d) if d <= t.max_range_mm && !dropped => {
+                    Some((d + noise).round().clamp(0.0, u16::MAX as f64) as u16)
+                }
                 _ => None,
             };
         }
@@ -196,7 +212,10 @@ impl Robot {
             let dist = dx.hypot(dy);
             let bearing = wrap_deg(dx.atan2(dy).to_degrees() - self.truth.heading_deg);
             // Angle between the tag's face normal and the direction back to the camera.
-            let incidence = ((-dx * tag.normal.x - dy * tag.normal.y) / dist.max(1e-9)).clamp(-1.0, 1.0).acos().to_degrees();
+            let incidence = ((-dx * tag.normal.x - dy * tag.normal.y) / dist.max(1e-9))
+                .clamp(-1.0, 1.0)
+                .acos()
+                .to_degrees();
             let visible = dist <= c.max_range_mm
                 && bearing.abs() <= c.fov_deg / 2.0
                 && incidence <= c.max_incidence_deg
@@ -204,12 +223,18 @@ impl Robot {
             if !visible {
                 continue;
             }
-            let cx = c.width_px / 2.0 + c.focal_px * bearing.to_radians().tan() + noise(&mut self.rng.camera, c.pixel_noise_px);
+            let cx = c.width_px / 2.0
+                + c.focal_px * bearing.to_radians().tan()
+                + noise(&mut self.rng.camera, c.pixel_noise_px);
             let d = dist + noise(&mut self.rng.camera, c.distance_noise_mm);
             if !(0.0..=c.width_px).contains(&cx) || d <= 0.0 {
                 continue;
             }
-            let detection = TagDetection { id: tag.id, cx_centipx: (cx * 100.0).round() as i32, distance_mm: d.round() as u32 };
+            let detection = TagDetection {
+                id: tag.id,
+                cx_centipx: (cx * 100.0).round() as i32,
+                distance_mm: d.round() as u32,
+            };
             if out.push(detection).is_err() {
                 break;
             }

@@ -18,15 +18,26 @@ pub struct Route {
 impl Route {
     /// A route at its first step.
     pub fn new(steps: &[RouteStep]) -> Route {
-        Route { steps: steps.to_vec(), index: 0, progress: 0.0, last: None }
+        Route {
+            steps: steps.to_vec(),
+            index: 0,
+            progress: 0.0,
+            last: None,
+        }
     }
 
     /// What the motors should do now; `None` once the route is done.
     pub fn command(&self) -> Option<Command> {
         Some(match self.steps.get(self.index)? {
-            RouteStep::Turn { degrees, rate_dps } => Command { speed_mm_s: 0.0, turn_dps: rate_dps.copysign(*degrees) },
+            RouteStep::Turn { degrees, rate_dps } => Command {
+                speed_mm_s: 0.0,
+                turn_dps: rate_dps.copysign(*degrees),
+            },
             RouteStep::Drive { speed_mm_s, .. } | RouteStep::DriveDistance { speed_mm_s, .. } => {
-                Command { speed_mm_s: *speed_mm_s, turn_dps: 0.0 }
+                Command {
+                    speed_mm_s: *speed_mm_s,
+                    turn_dps: 0.0,
+                }
             }
             RouteStep::Wait { .. } => Command::default(),
         })
@@ -35,7 +46,9 @@ impl Route {
     /// Called after each tick's motion with the true pose; moves on when a step is done.
     pub fn after_tick(&mut self, truth: TruePose, tick_s: f64) {
         let last = self.last.replace(truth).unwrap_or(truth);
-        let Some(step) = self.steps.get(self.index) else { return };
+        let Some(step) = self.steps.get(self.index) else {
+            return;
+        };
         let done = match step {
             RouteStep::Turn { degrees, .. } => {
                 self.progress += wrap_deg(truth.heading_deg - last.heading_deg).abs();

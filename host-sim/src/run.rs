@@ -7,8 +7,8 @@ use crate::scenario::Scenario;
 use crate::world::{Vec2, World};
 use serde::Serialize;
 use slam_core::{
-    Angle, CameraConfig, DepthConfig, FixOutcome, GridGeometry, KnownTag, Occupancy, OdometryConfig, Pose,
-    SensorFrame, Slam, SlamConfig, TagMap,
+    Angle, CameraConfig, DepthConfig, FixOutcome, GridGeometry, KnownTag, Occupancy,
+    OdometryConfig, Pose, SensorFrame, Slam, SlamConfig, TagMap,
 };
 use std::fmt;
 use std::str::FromStr;
@@ -49,7 +49,9 @@ impl FromStr for PoseMode {
             "truth" => Ok(PoseMode::Truth),
             "dead-reckoning" => Ok(PoseMode::DeadReckoning),
             "tags" => Ok(PoseMode::Tags),
-            other => Err(format!("unknown pose mode `{other}`: expected truth, dead-reckoning or tags")),
+            other => Err(format!(
+                "unknown pose mode `{other}`: expected truth, dead-reckoning or tags"
+            )),
         }
     }
 }
@@ -105,7 +107,10 @@ impl fmt::Display for RunError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             RunError::GridTooLarge { columns, rows } => {
-                write!(f, "the world needs a {columns} x {rows} grid; the largest built in is 206 x 206")
+                write!(
+                    f,
+                    "the world needs a {columns} x {rows} grid; the largest built in is 206 x 206"
+                )
             }
             RunError::Config(e) => write!(f, "the core refused the configuration: {e:?}"),
         }
@@ -120,10 +125,18 @@ pub fn slam_config(s: &Scenario) -> SlamConfig {
         .world
         .tags
         .iter()
-        .map(|t| KnownTag { id: t.id, x_mm: t.x_mm.round() as i32, y_mm: t.y_mm.round() as i32 })
+        .map(|t| KnownTag {
+            id: t.id,
+            x_mm: t.x_mm.round() as i32,
+            y_mm: t.y_mm.round() as i32,
+        })
         .collect();
     let mut config = SlamConfig::seed_mat();
-    config.geometry = GridGeometry { cell_mm: s.grid.cell_mm, origin_x_mm: s.grid.origin_x_mm, origin_y_mm: s.grid.origin_y_mm };
+    config.geometry = GridGeometry {
+        cell_mm: s.grid.cell_mm,
+        origin_x_mm: s.grid.origin_x_mm,
+        origin_y_mm: s.grid.origin_y_mm,
+    };
     config.depth = DepthConfig {
         beam_angles: slam_core::slam::fan((s.sensors.tof.fov_deg * 1000.0).round() as i64),
         max_range_mm: s.grid.max_range_mm,
@@ -221,7 +234,7 @@ fn run_sized<const W: usize, const H: usize>(
         let est = report.pose;
         let (ex, ey) = (est.x_um as f64 / 1000.0, est.y_um as f64 / 1000.0);
         let est_heading = est.heading.to_microdegrees() as f64 / 1e6;
-        if ticks.len() % 10 == 0 {
+        if ticks.len().is_multiple_of(10) {
             out_of_place_pct = map_counts(slam.map(), &real).out_of_place_pct();
         }
         let counts = slam.map().counts();
@@ -273,7 +286,11 @@ fn run_sized<const W: usize, const H: usize>(
         map: snapshot(slam.map(), &real),
         world: outline(robot.world()),
     };
-    Ok(RunOutput { record, figures, frames })
+    Ok(RunOutput {
+        record,
+        figures,
+        frames,
+    })
 }
 
 /// For each cell, whether its centre lies on something real.
@@ -289,7 +306,10 @@ fn real_mask<const W: usize, const H: usize>(world: &World, g: &GridGeometry) ->
 
 fn cell_centre(g: &GridGeometry, c: i32, r: i32) -> (f64, f64) {
     let cell = g.cell_mm as f64;
-    (g.origin_x_mm as f64 + (c as f64 + 0.5) * cell, g.origin_y_mm as f64 + (r as f64 + 0.5) * cell)
+    (
+        g.origin_x_mm as f64 + (c as f64 + 0.5) * cell,
+        g.origin_y_mm as f64 + (r as f64 + 0.5) * cell,
+    )
 }
 
 struct MapCounts {
@@ -304,8 +324,15 @@ impl MapCounts {
     }
 }
 
-fn map_counts<const W: usize, const H: usize>(map: &slam_core::GridMap<W, H>, real: &[bool]) -> MapCounts {
-    let mut m = MapCounts { free: 0, occupied: 0, out_of_place: 0 };
+fn map_counts<const W: usize, const H: usize>(
+    map: &slam_core::GridMap<W, H>,
+    real: &[bool],
+) -> MapCounts {
+    let mut m = MapCounts {
+        free: 0,
+        occupied: 0,
+        out_of_place: 0,
+    };
     for (i, real) in real.iter().enumerate() {
         match map.occupancy((i % W) as i32, (i / W) as i32) {
             Occupancy::Free => m.free += 1,
@@ -319,7 +346,10 @@ fn map_counts<const W: usize, const H: usize>(map: &slam_core::GridMap<W, H>, re
     m
 }
 
-fn snapshot<const W: usize, const H: usize>(map: &slam_core::GridMap<W, H>, real: &[bool]) -> MapSnapshot {
+fn snapshot<const W: usize, const H: usize>(
+    map: &slam_core::GridMap<W, H>,
+    real: &[bool],
+) -> MapSnapshot {
     let g = map.geometry();
     let cells: Vec<CellBelief> = (0..W * H)
         .map(|i| match map.occupancy((i % W) as i32, (i / W) as i32) {
@@ -328,7 +358,11 @@ fn snapshot<const W: usize, const H: usize>(map: &slam_core::GridMap<W, H>, real
             Occupancy::Unknown => CellBelief::Unknown,
         })
         .collect();
-    let out_of_place = cells.iter().zip(real).map(|(c, r)| *c == CellBelief::Occupied && !r).collect();
+    let out_of_place = cells
+        .iter()
+        .zip(real)
+        .map(|(c, r)| *c == CellBelief::Occupied && !r)
+        .collect();
     MapSnapshot {
         width: W,
         height: H,
@@ -342,7 +376,16 @@ fn snapshot<const W: usize, const H: usize>(map: &slam_core::GridMap<W, H>, real
 
 fn outline(world: &World) -> WorldOutline {
     WorldOutline {
-        walls: world.walls().iter().filter(|w| w.tag.is_none()).map(|w| ((w.a.x, w.a.y), (w.b.x, w.b.y))).collect(),
-        tags: world.tags().iter().map(|t| (t.id, (t.centre.x, t.centre.y))).collect(),
+        walls: world
+            .walls()
+            .iter()
+            .filter(|w| w.tag.is_none())
+            .map(|w| ((w.a.x, w.a.y), (w.b.x, w.b.y)))
+            .collect(),
+        tags: world
+            .tags()
+            .iter()
+            .map(|t| (t.id, (t.centre.x, t.centre.y)))
+            .collect(),
     }
 }

@@ -212,7 +212,9 @@ impl fmt::Display for ScenarioError {
         match self {
             ScenarioError::Io(e) => write!(f, "cannot read scenario: {e}"),
             ScenarioError::Parse(e) => write!(f, "scenario is not valid: {e}"),
-            ScenarioError::Invalid { field, problem } => write!(f, "scenario field `{field}`: {problem}"),
+            ScenarioError::Invalid { field, problem } => {
+                write!(f, "scenario field `{field}`: {problem}")
+            }
         }
     }
 }
@@ -243,7 +245,10 @@ impl Check {
 
     fn fail(&mut self, field: &str, problem: String) {
         if self.0.is_ok() {
-            self.0 = Err(ScenarioError::Invalid { field: field.to_string(), problem });
+            self.0 = Err(ScenarioError::Invalid {
+                field: field.to_string(),
+                problem,
+            });
         }
     }
 }
@@ -260,7 +265,8 @@ impl Scenario {
 
     /// Parses and checks scenario text.
     pub fn parse(text: &str) -> Result<Scenario, ScenarioError> {
-        let scenario: Scenario = toml::from_str(text).map_err(|e| ScenarioError::Parse(e.to_string()))?;
+        let scenario: Scenario =
+            toml::from_str(text).map_err(|e| ScenarioError::Parse(e.to_string()))?;
         scenario.validate()?;
         Ok(scenario)
     }
@@ -280,7 +286,11 @@ impl Scenario {
                 c.fail(&format!("world.walls[{i}]"), "has zero length".into());
             }
         }
-        c.positive("world.wall_tolerance_mm", self.world.wall_tolerance_mm, 1000.0);
+        c.positive(
+            "world.wall_tolerance_mm",
+            self.world.wall_tolerance_mm,
+            1000.0,
+        );
         for (i, t) in self.world.tags.iter().enumerate() {
             let f = |name: &str| format!("world.tags[{i}].{name}");
             c.range(&f("x_mm"), t.x_mm, -MAX_MM, MAX_MM);
@@ -292,7 +302,10 @@ impl Scenario {
             }
         }
         if self.world.tags.len() > slam_core::tagfix::MAX_KNOWN_TAGS {
-            c.fail("world.tags", format!("at most {} tags", slam_core::tagfix::MAX_KNOWN_TAGS));
+            c.fail(
+                "world.tags",
+                format!("at most {} tags", slam_core::tagfix::MAX_KNOWN_TAGS),
+            );
         }
         c.range("start.x_mm", self.start.x_mm, -MAX_MM, MAX_MM);
         c.range("start.y_mm", self.start.y_mm, -MAX_MM, MAX_MM);
@@ -312,14 +325,42 @@ impl Scenario {
         c.positive("sensors.camera.width_px", s.camera.width_px, 10_000.0);
         c.positive("sensors.camera.focal_px", s.camera.focal_px, 10_000.0);
         c.positive("sensors.camera.fov_deg", s.camera.fov_deg, 179.0);
-        c.positive("sensors.camera.max_range_mm", s.camera.max_range_mm, 65_000.0);
-        c.positive("sensors.camera.max_incidence_deg", s.camera.max_incidence_deg, 90.0);
-        c.range("sensors.camera.pixel_noise_px", s.camera.pixel_noise_px, 0.0, 100.0);
-        c.range("sensors.camera.distance_noise_mm", s.camera.distance_noise_mm, 0.0, 1000.0);
+        c.positive(
+            "sensors.camera.max_range_mm",
+            s.camera.max_range_mm,
+            65_000.0,
+        );
+        c.positive(
+            "sensors.camera.max_incidence_deg",
+            s.camera.max_incidence_deg,
+            90.0,
+        );
+        c.range(
+            "sensors.camera.pixel_noise_px",
+            s.camera.pixel_noise_px,
+            0.0,
+            100.0,
+        );
+        c.range(
+            "sensors.camera.distance_noise_mm",
+            s.camera.distance_noise_mm,
+            0.0,
+            1000.0,
+        );
 
         c.range("grid.cell_mm", self.grid.cell_mm as f64, 5.0, 1000.0);
-        c.range("grid.origin_x_mm", self.grid.origin_x_mm as f64, -MAX_MM, MAX_MM);
-        c.range("grid.origin_y_mm", self.grid.origin_y_mm as f64, -MAX_MM, MAX_MM);
+        c.range(
+            "grid.origin_x_mm",
+            self.grid.origin_x_mm as f64,
+            -MAX_MM,
+            MAX_MM,
+        );
+        c.range(
+            "grid.origin_y_mm",
+            self.grid.origin_y_mm as f64,
+            -MAX_MM,
+            MAX_MM,
+        );
         if c.0.is_ok() && (self.grid.max_range_mm as i32) <= self.grid.cell_mm {
             c.fail("grid.max_range_mm", "must be longer than one cell".into());
         }
@@ -334,11 +375,17 @@ impl Scenario {
                     c.range(&f("degrees"), *degrees, -36_000.0, 36_000.0);
                     c.positive(&f("rate_dps"), *rate_dps, 1000.0);
                 }
-                RouteStep::Drive { seconds, speed_mm_s } => {
+                RouteStep::Drive {
+                    seconds,
+                    speed_mm_s,
+                } => {
                     c.positive(&f("seconds"), *seconds, 3600.0);
                     c.range(&f("speed_mm_s"), *speed_mm_s, -2000.0, 2000.0);
                 }
-                RouteStep::DriveDistance { distance_mm, speed_mm_s } => {
+                RouteStep::DriveDistance {
+                    distance_mm,
+                    speed_mm_s,
+                } => {
                     c.positive(&f("distance_mm"), *distance_mm, MAX_MM);
                     c.positive(&f("speed_mm_s"), *speed_mm_s, 2000.0);
                 }

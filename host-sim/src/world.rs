@@ -74,7 +74,11 @@ impl World {
             .world
             .walls
             .iter()
-            .map(|w| Wall { a: Vec2::new(w[0][0], w[0][1]), b: Vec2::new(w[1][0], w[1][1]), tag: None })
+            .map(|w| Wall {
+                a: Vec2::new(w[0][0], w[0][1]),
+                b: Vec2::new(w[1][0], w[1][1]),
+                tag: None,
+            })
             .collect();
         let tags: Vec<TagSite> = scenario.world.tags.iter().map(tag_site).collect();
         for (t, spec) in tags.iter().zip(&scenario.world.tags) {
@@ -87,7 +91,11 @@ impl World {
                 tag: Some(t.id),
             });
         }
-        World { walls, tags, wall_tolerance_mm: scenario.world.wall_tolerance_mm }
+        World {
+            walls,
+            tags,
+            wall_tolerance_mm: scenario.world.wall_tolerance_mm,
+        }
     }
 
     /// Every solid segment, tag cards included.
@@ -102,9 +110,10 @@ impl World {
 
     /// Distance along a ray from `origin` in unit direction `dir` to the first thing it hits.
     pub fn ray(&self, origin: Vec2, dir: Vec2) -> Option<f64> {
-        self.walls.iter().filter_map(|w| ray_segment(origin, dir, w.a, w.b)).fold(None, |best, d| {
-            Some(best.map_or(d, |b: f64| b.min(d)))
-        })
+        self.walls
+            .iter()
+            .filter_map(|w| ray_segment(origin, dir, w.a, w.b))
+            .fold(None, |best, d| Some(best.map_or(d, |b: f64| b.min(d))))
     }
 
     /// Whether the straight line from `from` to tag `id`'s centre crosses nothing but that
@@ -127,13 +136,23 @@ impl World {
     /// Whether a point lies on something real: within the wall tolerance of a segment, or
     /// on a tag card's square (the seed's rule: 9 cm either way of a tag's centre).
     pub fn is_real(&self, p: Vec2) -> bool {
-        self.walls.iter().filter(|w| w.tag.is_none()).any(|w| point_segment_distance(p, w.a, w.b) < self.wall_tolerance_mm)
-            || self.tags.iter().any(|t| (p.x - t.centre.x).abs() < 90.0 && (p.y - t.centre.y).abs() < 90.0)
+        self.walls
+            .iter()
+            .filter(|w| w.tag.is_none())
+            .any(|w| point_segment_distance(p, w.a, w.b) < self.wall_tolerance_mm)
+            || self
+                .tags
+                .iter()
+                .any(|t| (p.x - t.centre.x).abs() < 90.0 && (p.y - t.centre.y).abs() < 90.0)
     }
 }
 
 fn tag_site(t: &Tag) -> TagSite {
-    TagSite { id: t.id, centre: Vec2::new(t.x_mm, t.y_mm), normal: Vec2::heading(t.facing_deg) }
+    TagSite {
+        id: t.id,
+        centre: Vec2::new(t.x_mm, t.y_mm),
+        normal: Vec2::heading(t.facing_deg),
+    }
 }
 
 /// Distance along the ray `origin + t * dir` (t >= 0) to the segment `a`-`b`, if it meets it.
@@ -153,7 +172,11 @@ pub fn ray_segment(origin: Vec2, dir: Vec2, a: Vec2, b: Vec2) -> Option<f64> {
 pub fn point_segment_distance(p: Vec2, a: Vec2, b: Vec2) -> f64 {
     let ab = b.sub(a);
     let len2 = ab.x * ab.x + ab.y * ab.y;
-    let t = if len2 > 0.0 { (((p.x - a.x) * ab.x + (p.y - a.y) * ab.y) / len2).clamp(0.0, 1.0) } else { 0.0 };
+    let t = if len2 > 0.0 {
+        (((p.x - a.x) * ab.x + (p.y - a.y) * ab.y) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
     Vec2::new(a.x + ab.x * t, a.y + ab.y * t).sub(p).norm()
 }
 
@@ -164,10 +187,27 @@ mod tests {
     #[test]
     fn ray_hits_nearest_segment() {
         let o = Vec2::new(700.0, 500.0);
-        let d = ray_segment(o, Vec2::heading(0.0), Vec2::new(0.0, 2000.0), Vec2::new(2000.0, 2000.0));
+        let d = ray_segment(
+            o,
+            Vec2::heading(0.0),
+            Vec2::new(0.0, 2000.0),
+            Vec2::new(2000.0, 2000.0),
+        );
         assert!((d.unwrap() - 1500.0).abs() < 1e-9);
-        assert!(ray_segment(o, Vec2::heading(180.0), Vec2::new(0.0, 2000.0), Vec2::new(2000.0, 2000.0)).is_none());
-        assert!(ray_segment(o, Vec2::heading(90.0), Vec2::new(0.0, 2000.0), Vec2::new(2000.0, 2000.0)).is_none());
+        assert!(ray_segment(
+            o,
+            Vec2::heading(180.0),
+            Vec2::new(0.0, 2000.0),
+            Vec2::new(2000.0, 2000.0)
+        )
+        .is_none());
+        assert!(ray_segment(
+            o,
+            Vec2::heading(90.0),
+            Vec2::new(0.0, 2000.0),
+            Vec2::new(2000.0, 2000.0)
+        )
+        .is_none());
     }
 
     #[test]

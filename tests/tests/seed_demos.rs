@@ -17,21 +17,35 @@ fn check_truth(seed: u64) {
     assert!(f.final_heading_error_deg < 1e-6, "seed {seed}: {f:?}");
     assert_eq!(f.out_of_place, 0, "seed {seed}: {f:?}");
     assert!(f.known_pct >= 78.0, "seed {seed}: known {}", f.known_pct);
-    assert!((440..=540).contains(&f.ticks), "seed {seed}: {} ticks", f.ticks);
-    assert!(f.occupied > 150, "seed {seed}: the outline needs black cells: {f:?}");
+    assert!(
+        (440..=540).contains(&f.ticks),
+        "seed {seed}: {} ticks",
+        f.ticks
+    );
+    assert!(
+        f.occupied > 150,
+        "seed {seed}: the outline needs black cells: {f:?}"
+    );
     assert_eq!(f.fixes, 0);
 }
 
 /// Demo 2: odometry alone. Seed: 10.2 cm and 9.1 degrees out at the end, walls out of place.
 fn check_dead_reckoning(seed: u64) {
     let f = run_seed(PoseMode::DeadReckoning, seed).figures;
-    assert!((5.0..=15.0).contains(&f.final_error_cm), "seed {seed}: final error {} cm", f.final_error_cm);
+    assert!(
+        (5.0..=15.0).contains(&f.final_error_cm),
+        "seed {seed}: final error {} cm",
+        f.final_error_cm
+    );
     assert!(
         (5.0..=13.0).contains(&f.final_heading_error_deg),
         "seed {seed}: final heading error {} deg",
         f.final_heading_error_deg
     );
-    assert!(f.out_of_place > 0, "seed {seed}: a smeared map has cells out of place");
+    assert!(
+        f.out_of_place > 0,
+        "seed {seed}: a smeared map has cells out of place"
+    );
     assert_eq!(f.fixes, 0);
     assert_eq!(f.first_fix_s, None);
 }
@@ -65,9 +79,20 @@ fn tags_over_20_seeds() {
         let tags = run_seed(PoseMode::Tags, seed);
         let f = &tags.figures;
         let first = f.first_fix_s.unwrap_or(f64::NAN);
-        assert!((12.0..=16.0).contains(&first), "seed {seed}: first fix at {first} s");
-        assert!((100..=220).contains(&f.fixes), "seed {seed}: {} fixes", f.fixes);
-        assert!(f.max_error_after_first_fix_cm <= 2.0, "seed {seed}: {} cm after first fix", f.max_error_after_first_fix_cm);
+        assert!(
+            (12.0..=16.0).contains(&first),
+            "seed {seed}: first fix at {first} s"
+        );
+        assert!(
+            (100..=220).contains(&f.fixes),
+            "seed {seed}: {} fixes",
+            f.fixes
+        );
+        assert!(
+            f.max_error_after_first_fix_cm <= 2.0,
+            "seed {seed}: {} cm after first fix",
+            f.max_error_after_first_fix_cm
+        );
         assert!(
             f.max_heading_error_after_first_fix_deg <= 3.5,
             "seed {seed}: {} deg after first fix",
@@ -77,14 +102,38 @@ fn tags_over_20_seeds() {
 
         // Until the first fix the tag run is the dead-reckoning run, tick for tick.
         let dr = run_seed(PoseMode::DeadReckoning, seed);
-        let before: Vec<f64> = tags.record.ticks.iter().take_while(|t| !t.fix_taken).map(|t| t.error_cm).collect();
-        let dr_before: Vec<f64> = dr.record.ticks.iter().take(before.len()).map(|t| t.error_cm).collect();
-        assert!(before.len() > 100, "seed {seed}: the first fix cannot come before the robot drives");
-        assert_eq!(before, dr_before, "seed {seed}: error curves differ before the first fix");
+        let before: Vec<f64> = tags
+            .record
+            .ticks
+            .iter()
+            .take_while(|t| !t.fix_taken)
+            .map(|t| t.error_cm)
+            .collect();
+        let dr_before: Vec<f64> = dr
+            .record
+            .ticks
+            .iter()
+            .take(before.len())
+            .map(|t| t.error_cm)
+            .collect();
+        assert!(
+            before.len() > 100,
+            "seed {seed}: the first fix cannot come before the robot drives"
+        );
+        assert_eq!(
+            before, dr_before,
+            "seed {seed}: error curves differ before the first fix"
+        );
         // And the fix is what makes the difference.
-        assert!(dr.figures.final_error_cm > 3.0 * f.final_error_cm.max(1.0), "seed {seed}");
+        assert!(
+            dr.figures.final_error_cm > 3.0 * f.final_error_cm.max(1.0),
+            "seed {seed}"
+        );
     }
-    assert!(clean_maps >= 19, "only {clean_maps} of 20 tag maps have no cell out of place");
+    assert!(
+        clean_maps >= 19,
+        "only {clean_maps} of 20 tag maps have no cell out of place"
+    );
 }
 
 #[test]
@@ -93,7 +142,12 @@ fn tags_at_fixed_seed_keep_the_map_sharp() {
     let truth = run_seed(PoseMode::Truth, FIXED_SEED).figures;
     assert_eq!(tags.out_of_place, 0, "{tags:?}");
     // The map is as complete as the perfect-pose one, within a few percent.
-    assert!((tags.known_pct - truth.known_pct).abs() < 3.0, "{} vs {}", tags.known_pct, truth.known_pct);
+    assert!(
+        (tags.known_pct - truth.known_pct).abs() < 3.0,
+        "{} vs {}",
+        tags.known_pct,
+        truth.known_pct
+    );
 }
 
 #[test]
@@ -103,5 +157,8 @@ fn the_same_seed_gives_the_same_run() {
     assert_eq!(a.figures, b.figures);
     assert_eq!(a.record.ticks, b.record.ticks);
     let c = run_seed(PoseMode::Tags, 8);
-    assert_ne!(a.record.ticks, c.record.ticks, "noise must depend on the seed");
+    assert_ne!(
+        a.record.ticks, c.record.ticks,
+        "noise must depend on the seed"
+    );
 }

@@ -6,7 +6,8 @@ use std::path::PathBuf;
 
 /// The seed's world and route, as shipped.
 pub fn seed_scenario() -> Scenario {
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../host-sim/scenarios/seed-mat.toml");
+    let path =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../host-sim/scenarios/seed-mat.toml");
     match Scenario::load(&path) {
         Ok(s) => s,
         Err(e) => panic!("the shipped scenario must load: {e}"),

@@ -1,0 +1,206 @@
+//! The demo command line: figures as JSON, and clear refusals of bad input.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn seed_path() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/seed-mat.toml")
+}
+
+fn host_sim(args: &[&str]) -> Output {
+    match Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .args(args)
+        .output()
+    {
+        Ok(o) => o,
+        Err(e) => panic!("cannot start host-sim: {e}"),
+    }
+}
+
+/// A scratch file holding `text`, unique to this test.
+fn scratch(name: &str, text: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("host-sim-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).ok();
+    let path = dir.join(name);
+    if let Err(e) = std::fs::write(&path, text) {
+        panic!("cannot write {}: {e}", path.display());
+    }
+    path
+}
+
+fn seed_text() -> String {
+    std::fs::read_to_string(seed_path()).unwrap_or_default()
+}
+
+/// Runs a scenario that must be refused: exit code 2, no panic, and `field` named.
+fn refused(name: &str, text: &str, field: &str) {
+    let path = scratch(name, text);
+    let out = host_sim(&["run", path.to_str().unwrap_or_default(), "--json"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{name}: {err}");
+    assert!(
+        err.contains(field),
+        "{name}: error should name `{field}`: {err}"
+    );
+    assert!(!err.contains("panicked"), "{name}: {err}");
+    assert!(
+        out.stdout.is_empty(),
+        "{name}: no figures for a bad scenario"
+    );
+}
+
+#[test]
+fn json_has_every_figure() {
+    let out = host_sim(&[
+        "run",
+        seed_path().to_str().unwrap_or_default(),
+        "--pose",
+        "tags",
+        "--seed",
+        "3",
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = match serde_json::from_slice(&out.stdout) {
+        Ok(v) => v,
+        Err(e) => panic!("not JSON: {e}: {}", String::from_utf8_lossy(&out.stdout)),
+    };
+    for key in [
+        "ticks",
+        "known_pct",
+        "free",
+        "occupied",
+        "out_of_place",
+        "fixes",
+        "first_fix_s",
+        "final_error_cm",
+        "max_error_after_first_fix_cm",
+        "final_heading_error_deg",
+        "max_heading_error_after_first_fix_deg",
+    ] {
+        assert!(v.get(key).is_some(), "missing `{key}` in {v}");
+    }
+    assert!(v["ticks"].as_u64().unwrap_or(0) > 400);
+    let dr = host_sim(&[
+        "run",
+        seed_path().to_str().unwrap_or_default(),
+        "--pose",
+        "dead-reckoning",
+        "--json",
+    ]);
+    let v: serde_json::Value = serde_json::from_slice(&dr.stdout).unwrap_or_default();
+    assert!(v["first_fix_s"].is_null(), "no fix without tags: {v}");
+}
+
+#[test]
+fn summary_reads_like_the_seed() {
+    let out = host_sim(&[
+        "run",
+        seed_path().to_str().unwrap_or_default(),
+        "--pose",
+        "truth",
+    ]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success());
+    assert!(
+        text.contains("free ") && text.contains("occupied ") && text.contains("out of place 0"),
+        "{text}"
+    );
+}
+
+#[test]
+fn bad_arguments_are_refused() {
+    for args in [
+        vec!["run"],
+        vec!["run", "x.toml", "--pose", "sideways"],
+        vec!["run", "x.toml", "--seed", "-1"],
+        vec!["run", "x.toml", "--seed"],
+        vec!["fly"],
+    ] {
+        let out = host_sim(&args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        assert!(!String::from_utf8_lossy(&out.stderr).contains("panicked"));
+    }
+    let out = host_sim(&["run", "/nonexistent/scenario.toml"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("cannot read"));
+}
+
+#[test]
+fn missing_field_is_named() {
+    refused(
+        "missing.toml",
+        &seed_text().replace("noise_dps = 0.1\n", ""),
+        "noise_dps",
+    );
+}
+
+#[test]
+fn wrong_type_is_named() {
+    refused(
+        "type.toml",
+        &seed_text().replace("noise_mm = 5", "noise_mm = \"five\""),
+        "noise_mm",
+    );
+}
+
+#[test]
+fn nan_is_refused() {
+    refused(
+        "nan.toml",
+        &seed_text().replace("bias_dps = 0.02", "bias_dps = nan"),
+        "sensors.gyro.bias_dps",
+    );
+}
+
+#[test]
+fn negative_and_absurd_values_are_refused() {
+    refused(
+        "neg.toml",
+        &seed_text().replace("max_range_mm = 1500", "max_range_mm = -1500"),
+        "sensors.camera.max_range_mm",
+    );
+    refused(
+        "rate.toml",
+        &seed_text().replacen("rate_dps = 31.5", "rate_dps = 0", 1),
+        "route[0].rate_dps",
+    );
+    refused(
+        "drop.toml",
+        &seed_text().replace("dropout = 0.02", "dropout = 7"),
+        "sensors.tof.dropout",
+    );
+    refused(
+        "wall.toml",
+        &seed_text().replace("[[0, 0], [2000, 0]]", "[[0, 0], [1e300, 0]]"),
+        "world.walls[0][1][0]",
+    );
+    refused(
+        "cell.toml",
+        &seed_text().replace("cell_mm = 50", "cell_mm = 0"),
+        "grid.cell_mm",
+    );
+    refused(
+        "dup.toml",
+        &seed_text().replace("id = 12", "id = 11"),
+        "world.tags[1].id",
+    );
+    refused(
+        "unknown.toml",
+        &seed_text().replace("seed = 1", "seed = 1\ncolour = \"red\""),
+        "colour",
+    );
+}
+
+#[test]
+fn garbage_file_is_refused() {
+    refused(
+        "garbage.toml",
+        "\u{0}\u{1}not toml at all [[[",
+        "scenario is not valid",
+    );
+}
