@@ -241,7 +241,10 @@ pub struct CellWalk {
     next_row: i64,
     delta_column: i64,
     delta_row: i64,
-    remaining: u32,
+    /// Column boundaries still to cross before the end cell.
+    columns_left: u32,
+    /// Row boundaries still to cross before the end cell.
+    rows_left: u32,
     started: bool,
 }
 
@@ -292,7 +295,8 @@ impl CellWalk {
             },
             delta_column: cell * ady,
             delta_row: cell * adx,
-            remaining: ((c1 - c0).abs() + (r1 - r0).abs()) as u32,
+            columns_left: (c1 - c0).unsigned_abs() as u32,
+            rows_left: (r1 - r0).unsigned_abs() as u32,
             started: false,
         }
     }
@@ -306,15 +310,19 @@ impl Iterator for CellWalk {
             self.started = true;
             return Some((self.column, self.row));
         }
-        if self.remaining == 0 {
+        if self.columns_left == 0 && self.rows_left == 0 {
             return None;
         }
-        self.remaining -= 1;
-        // Cross whichever boundary comes first along the segment.
-        if self.next_column < self.next_row {
+        // Cross whichever boundary comes first along the segment; once one axis has
+        // reached the end cell's line only the other may move, so a segment that ends
+        // exactly on a corner still ends in its own cell.
+        let column_first = self.next_column < self.next_row;
+        if self.rows_left == 0 || (self.columns_left > 0 && column_first) {
+            self.columns_left -= 1;
             self.column += self.step_column;
             self.next_column = self.next_column.saturating_add(self.delta_column);
         } else {
+            self.rows_left -= 1;
             self.row += self.step_row;
             self.next_row = self.next_row.saturating_add(self.delta_row);
         }

@@ -4,12 +4,12 @@ use crate::angle::Angle;
 use crate::frame::{FlowDelta, GyroRate};
 use crate::pose::{mul_q16, Pose};
 
-/// Binary angle units per (millidegree per second x microsecond), times 2^26.
+/// Binary angle units per (millidegree per second x microsecond), times 2^48.
 ///
 /// One millidegree is `2^32 / 360_000` units and one microsecond is `1e-6` s, so the
-/// exact factor is `2^32 / 3.6e11`; scaled by `2^26` it is `2^58 / 3.6e11` = 800639.9.
-/// Truncating costs 1.2 ppm of every turn: 0.02 degrees over ten minutes of spinning.
-const BAM_PER_MDPS_US_Q26: i64 = (1i64 << 58) / 360_000_000_000;
+/// exact factor is `2^32 / 3.6e11`; scaled by `2^48` it is `2^80 / 3.6e11` = 3.4e12, and
+/// truncating it costs under 3e-13 of any turn. Rate x tick x factor stays below 2^107.
+const BAM_PER_MDPS_US_Q48: i128 = (1i128 << 80) / 360_000_000_000;
 
 /// Calibration of the dead-reckoning sensors.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -32,21 +32,28 @@ impl OdometryConfig {
 /// How a pose moved over one tick, before it is applied.
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
 pub struct Motion {
-    /// Turn over the tick.
-    pub turn: Angle,
+    /// Turn over the tick in binary angle units (`2^32` per turn), not wrapped: a tick may
+    /// turn more than half a turn, and the mid-tick heading must still be right.
+    pub turn_bits: i64,
     /// Displacement towards the nose, in micrometres.
     pub forward_um: i64,
     /// Displacement towards the right, in micrometres.
     pub right_um: i64,
 }
 
-/// The turn a yaw rate makes in `dt_us` microseconds, with the gyro's scale correction.
+/// The turn a yaw rate makes in `dt_us` microseconds, with the gyro's scale correction,
+/// in binary angle units, unwrapped (saturating far beyond any real tick).
+pub fn turn_bits_from_gyro(gyro: GyroRate, dt_us: u32, config: &OdometryConfig) -> i64 {
+    let rate = gyro.rate_mdps as i128;
+    let rate = rate + rate * config.gyro_scale_ppm as i128 / 1_000_000;
+    // Once per tick, so 128-bit maths costs nothing that matters, and no input overflows.
+    let bits = (rate * dt_us as i128 * BAM_PER_MDPS_US_Q48 + (1 << 47)) >> 48;
+    bits.clamp(i64::MIN as i128, i64::MAX as i128) as i64
+}
+
+/// The turn a yaw rate makes in `dt_us` microseconds, as an angle (wrapped).
 pub fn turn_from_gyro(gyro: GyroRate, dt_us: u32, config: &OdometryConfig) -> Angle {
-    let rate = gyro.rate_mdps as i64;
-    let rate = rate + rate * config.gyro_scale_ppm as i64 / 1_000_000;
-    let product = rate * dt_us as i64; // <= 2^31 * 2^32 for any sane tick
-    let bits = (product.saturating_mul(BAM_PER_MDPS_US_Q26) + (1 << 25)) >> 26;
-    Angle::from_bits(bits as u32)
+    Angle::from_bits(turn_bits_from_gyro(gyro, dt_us, config) as u32)
 }
 
 /// The tick's motion from its (possibly stale) flow and gyro readings.
@@ -56,7 +63,7 @@ pub fn motion(
     dt_us: u32,
     config: &OdometryConfig,
 ) -> Motion {
-    let turn = gyro.map_or(Angle::ZERO, |g| turn_from_gyro(g, dt_us, config));
+    let turn_bits = gyro.map_or(0, |g| turn_bits_from_gyro(g, dt_us, config));
     let (forward_um, right_um) = flow.map_or((0, 0), |f| {
         (
             mul_q16(f.forward_counts as i64, config.flow_um_per_count_q16),
@@ -64,7 +71,7 @@ pub fn motion(
         )
     });
     Motion {
-        turn,
+        turn_bits,
         forward_um,
         right_um,
     }
@@ -73,7 +80,7 @@ pub fn motion(
 /// Applies a tick's motion: the displacement is rotated by the heading half way through the
 /// turn (the arc's chord direction), then the turn is added.
 pub fn apply(pose: &Pose, m: &Motion) -> Pose {
-    let mid = pose.heading + Angle::from_bits((m.turn.signed_bits() / 2) as u32);
+    let mid = pose.heading + Angle::from_bits((m.turn_bits / 2) as u32);
     let (s, c) = (mid.sin(), mid.cos());
     // nose = (sin h, cos h), right = (cos h, -sin h)
     let dx = mul_q16(m.forward_um, s) + mul_q16(m.right_um, c);
@@ -81,7 +88,7 @@ pub fn apply(pose: &Pose, m: &Motion) -> Pose {
     Pose {
         x_um: (pose.x_um as i64 + dx).clamp(i32::MIN as i64, i32::MAX as i64) as i32,
         y_um: (pose.y_um as i64 + dy).clamp(i32::MIN as i64, i32::MAX as i64) as i32,
-        heading: pose.heading + m.turn,
+        heading: pose.heading + Angle::from_bits(m.turn_bits as u32),
     }
 }
 

@@ -32,24 +32,24 @@ impl Pose {
 
     /// Position x rounded to millimetres.
     pub const fn x_mm(&self) -> i32 {
-        round_div(self.x_um, UM_PER_MM)
+        round_div(self.x_um as i64, UM_PER_MM as i64) as i32
     }
 
     /// Position y rounded to millimetres.
     pub const fn y_mm(&self) -> i32 {
-        round_div(self.y_um, UM_PER_MM)
+        round_div(self.y_um as i64, UM_PER_MM as i64) as i32
     }
 
-    /// Straight-line distance to `other` in micrometres (integer square root).
+    /// Straight-line distance to `other` in micrometres (integer square root), saturating.
     pub fn distance_um(&self, other: &Pose) -> u32 {
         let dx = (self.x_um as i64) - (other.x_um as i64);
         let dy = (self.y_um as i64) - (other.y_um as i64);
-        isqrt((dx * dx + dy * dy) as u64) as u32
+        hypot(dx, dy).min(u32::MAX as u64) as u32
     }
 }
 
 /// `a / b` rounded half away from zero; `b` must be positive.
-pub(crate) const fn round_div(a: i32, b: i32) -> i32 {
+pub(crate) const fn round_div(a: i64, b: i64) -> i64 {
     if a >= 0 {
         (a + b / 2) / b
     } else {
@@ -60,6 +60,12 @@ pub(crate) const fn round_div(a: i32, b: i32) -> i32 {
 /// `a * b >> 16` rounded to nearest, in 64 bits: multiplies a length by a Q16 factor.
 pub(crate) const fn mul_q16(a: i64, b: i32) -> i64 {
     (a * b as i64 + (1 << 15)) >> 16
+}
+
+/// `sqrt(x^2 + y^2)` rounded down, without overflow for any inputs (saturates at `u64::MAX`).
+pub(crate) fn hypot(x: i64, y: i64) -> u64 {
+    let (x, y) = (x.unsigned_abs() as u128, y.unsigned_abs() as u128);
+    isqrt((x * x + y * y).min(u64::MAX as u128) as u64)
 }
 
 /// Integer square root, rounded down.

@@ -6,7 +6,7 @@
 
 use crate::angle::Angle;
 use crate::frame::TagDetection;
-use crate::pose::{isqrt, mul_q16, Pose, UM_PER_MM};
+use crate::pose::{hypot, mul_q16, Pose, UM_PER_MM};
 
 /// Most known tags a map can hold.
 pub const MAX_KNOWN_TAGS: usize = 8;
@@ -76,7 +76,7 @@ impl CameraConfig {
     /// The bearing of a picture column from the nose: `atan((cx - centre) / focal)`, positive right.
     pub fn bearing(&self, cx_centipx: i32) -> Angle {
         Angle::of_vector(
-            (cx_centipx - self.centre_centipx) as i64,
+            cx_centipx as i64 - self.centre_centipx as i64,
             self.focal_centipx as i64,
         )
     }
@@ -93,6 +93,8 @@ pub struct FixConfig {
     pub baseline_tolerance_permille: u32,
     /// Tags closer together than this, in millimetres, give too short a baseline for a heading.
     pub min_baseline_mm: u32,
+    /// A tag read nearer than this, in millimetres, is a misread.
+    pub min_range_mm: u32,
     /// A fix further than this from the predicted position, in millimetres, is rejected.
     pub gate_position_mm: u32,
     /// A fix whose heading differs from the prediction by more than this, in millidegrees,
@@ -110,6 +112,7 @@ impl FixConfig {
         enabled: true,
         baseline_tolerance_permille: 200,
         min_baseline_mm: 100,
+        min_range_mm: 50,
         gate_position_mm: 300,
         gate_heading_mdeg: 20_000,
         relocalise_after: 5,
@@ -157,16 +160,20 @@ pub fn two_tag_pose(
     camera: &CameraConfig,
     config: &FixConfig,
 ) -> Result<Pose, FixRejection> {
+    // A tag read closer than this is a misread: no card fits in front of the lens.
+    if a.distance_mm < config.min_range_mm || b.distance_mm < config.min_range_mm {
+        return Err(FixRejection::Geometry);
+    }
     let (ax, ay, bearing_a) = robot_frame(a, camera);
     let (bx, by, bearing_b) = robot_frame(b, camera);
     let (seen_x, seen_y) = (bx - ax, by - ay);
     let (true_x, true_y) = ((tb.x_mm - ta.x_mm) as i64, (tb.y_mm - ta.y_mm) as i64);
-    let seen_len = isqrt((seen_x * seen_x + seen_y * seen_y) as u64) as i64;
-    let true_len = isqrt((true_x * true_x + true_y * true_y) as u64) as i64;
-    if true_len < config.min_baseline_mm as i64 {
+    let seen_len = hypot(seen_x, seen_y) as i128;
+    let true_len = hypot(true_x, true_y) as i128;
+    if true_len < config.min_baseline_mm as i128 {
         return Err(FixRejection::Geometry);
     }
-    if (seen_len - true_len).abs() * 1000 > true_len * config.baseline_tolerance_permille as i64 {
+    if (seen_len - true_len).abs() * 1000 > true_len * config.baseline_tolerance_permille as i128 {
         return Err(FixRejection::Geometry);
     }
     let heading = Angle::of_vector(true_x, true_y) - Angle::of_vector(seen_x, seen_y);
@@ -252,7 +259,7 @@ mod tests {
         TagDetection {
             id: tag.id,
             cx_centipx: cx as i32,
-            distance_mm: isqrt((dx * dx + dy * dy) as u64) as u32,
+            distance_mm: hypot(dx, dy) as u32,
         }
     }
 

@@ -1,0 +1,327 @@
+//! The two-tag fix against the truth and against the `f64` reference.
+
+mod reference;
+
+use proptest::prelude::*;
+use reference::{bits_to_rad, Seen};
+use slam_core::tagfix::{self, CameraConfig, FixConfig, FixRejection, KnownTag};
+use slam_core::{Angle, FixOutcome, Pose, SensorFrame, Slam, SlamConfig, TagDetection};
+
+const T11: KnownTag = KnownTag {
+    id: 11,
+    x_mm: 700,
+    y_mm: 1950,
+};
+const T12: KnownTag = KnownTag {
+    id: 12,
+    x_mm: 1500,
+    y_mm: 1950,
+};
+
+fn config() -> ProptestConfig {
+    ProptestConfig {
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    }
+}
+
+fn place(t: &KnownTag) -> (f64, f64) {
+    (t.x_mm as f64, t.y_mm as f64)
+}
+
+/// A true pose on the mat, facing the far wall, from which both tags are in the picture
+/// (bearings within +-55 degrees of the 120 degree view).
+#[derive(Clone, Copy, Debug)]
+struct Truth {
+    x_mm: f64,
+    y_mm: f64,
+    heading: f64,
+}
+
+fn truth() -> impl Strategy<Value = Truth> {
+    (150.0f64..1850.0, 150.0f64..1500.0, -50.0f64..50.0)
+        .prop_map(|(x_mm, y_mm, deg)| Truth {
+            x_mm,
+            y_mm,
+            heading: deg.to_radians(),
+        })
+        .prop_filter("both tags in view", |t| {
+            [T11, T12].iter().all(|tag| {
+                let s = reference::see(t.x_mm, t.y_mm, t.heading, place(tag));
+                reference::bearing(s.cx_px).abs() < 55f64.to_radians()
+            })
+        })
+}
+
+/// The detection a perfect camera reports, quantised as the driver does: the column to a
+/// hundredth of a pixel, the distance to a millimetre.
+fn detect(t: &Truth, tag: &KnownTag) -> TagDetection {
+    let s = reference::see(t.x_mm, t.y_mm, t.heading, place(tag));
+    TagDetection {
+        id: tag.id,
+        cx_centipx: (s.cx_px * 100.0).round() as i32,
+        distance_mm: s.distance_mm.round() as u32,
+    }
+}
+
+/// The same detection in the reference's units.
+fn seen(d: &TagDetection) -> Seen {
+    Seen {
+        cx_px: d.cx_centipx as f64 / 100.0,
+        distance_mm: d.distance_mm as f64,
+    }
+}
+
+/// Errors of a core fix against a reference pose: (position mm, heading degrees).
+fn errors(fix: &Pose, x_mm: f64, y_mm: f64, heading: f64) -> (f64, f64) {
+    let pos = (fix.x_um as f64 / 1000.0 - x_mm).hypot(fix.y_um as f64 / 1000.0 - y_mm);
+    let head = reference::angle_diff(bits_to_rad(fix.heading.bits()), heading)
+        .to_degrees()
+        .abs();
+    (pos, head)
+}
+
+/// Bound of the core fix against the reference fix from the same detections:
+/// **4 mm and 0.15 degrees.**
+///
+/// The core rounds each tag's robot-frame position to whole millimetres (`mul_q16` of a
+/// millimetre range), so each end of the seen baseline moves by up to 0.5 mm per axis plus
+/// 2e-5 of the range (Q16 sine): the seen baseline vector moves by at most
+/// `2 x sqrt(2) x 0.55` = 1.6 mm, which on an 800 mm baseline turns its direction by at
+/// most 2.0e-3 rad = 0.11 degrees (CORDIC error 1e-5 degrees on top). The position is
+/// `tag - d (sin, cos)(heading + bearing)`, so a heading error `e` moves it by `d e`:
+/// with tags at most 1.9 m away that is 1.9 m x 2.0e-3 = 3.8 mm (plus 2e-5 x d = 0.04 mm
+/// of Q16 and a micrometre of rounding).
+const VS_REFERENCE_MM: f64 = 4.0;
+const VS_REFERENCE_DEG: f64 = 0.15;
+
+/// Bound of the core fix against the truth: **7 mm and 0.25 degrees**: the bound against
+/// the reference plus what the detections' own quantisation does to the reference (0.5 mm
+/// of distance and 0.005 px of column, i.e. at most 0.55 mm per tag position, 1.4e-3 rad =
+/// 0.08 degrees of baseline direction, 1.9 m x 1.4e-3 + 0.55 = 3.2 mm of position).
+const VS_TRUTH_MM: f64 = 7.0;
+const VS_TRUTH_DEG: f64 = 0.25;
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 2000, ..config() })]
+
+    /// Exactly synthesised detections of tags 11 and 12 (in either order): the fix is
+    /// within 4 mm / 0.15 degrees of the reference's and within 7 mm / 0.25 degrees of the
+    /// truth.
+    #[test]
+    fn fix_matches_truth_and_reference(t in truth(), swap in any::<bool>()) {
+        let (mut a, mut b, mut ta, mut tb) = (detect(&t, &T11), detect(&t, &T12), T11, T12);
+        if swap {
+            core::mem::swap(&mut a, &mut b);
+            core::mem::swap(&mut ta, &mut tb);
+        }
+        let fix = tagfix::two_tag_pose((&a, &ta), (&b, &tb), &CameraConfig::SEED, &FixConfig::SEED);
+        prop_assert!(fix.is_ok(), "{:?}", fix);
+        let fix = fix.unwrap();
+        let want = reference::two_tag_fix(seen(&a), place(&ta), seen(&b), place(&tb));
+        let (p, h) = errors(&fix, want.x_mm, want.y_mm, want.heading);
+        prop_assert!(p <= VS_REFERENCE_MM && h <= VS_REFERENCE_DEG, "vs reference: {p} mm, {h} deg");
+        let (p, h) = errors(&fix, t.x_mm, t.y_mm, t.heading);
+        prop_assert!(p <= VS_TRUTH_MM && h <= VS_TRUTH_DEG, "vs truth: {p} mm, {h} deg");
+        // The reference itself, from the same quantised detections, is within the
+        // quantisation part of the budget.
+        let rp = (want.x_mm - t.x_mm).hypot(want.y_mm - t.y_mm);
+        let rh = reference::angle_diff(want.heading, t.heading).to_degrees().abs();
+        prop_assert!(rp <= VS_TRUTH_MM - VS_REFERENCE_MM && rh <= VS_TRUTH_DEG - VS_REFERENCE_DEG);
+    }
+
+    /// `CameraConfig::bearing` is `atan((cx - 160) / 92.4)` within 1.5e-5 degrees, over
+    /// the whole picture and far beyond it.
+    #[test]
+    fn bearing_matches_reference(cx in prop_oneof![0i32..32_000, any::<i32>()]) {
+        let core = bits_to_rad(CameraConfig::SEED.bearing(cx).bits());
+        let want = reference::bearing(cx as f64 / 100.0);
+        let err = reference::angle_diff(core, want).to_degrees().abs();
+        prop_assert!(err <= 1.5e-5, "cx {}: {} deg", cx, err);
+    }
+
+    /// Through `Slam::step` (predicted pose = truth, so inside the gate) with unknown tags
+    /// mixed in: the fix is taken and is exactly `two_tag_pose` of the longest known pair.
+    #[test]
+    fn step_takes_the_fix(t in truth(), junk in proptest::collection::vec((13u16..1000, any::<i32>(), any::<u32>()), 0..4)) {
+        let start = Pose {
+            x_um: (t.x_mm * 1000.0).round() as i32,
+            y_um: (t.y_mm * 1000.0).round() as i32,
+            heading: Angle::from_bits((t.heading.rem_euclid(std::f64::consts::TAU) / reference::RAD_PER_BIT) as u32),
+        };
+        let mut slam: Slam<46, 46> = Slam::new(SlamConfig::seed_mat(), start).unwrap();
+        let mut frame = SensorFrame::empty(100_000);
+        for (id, cx, d) in &junk {
+            frame.tags.push(TagDetection { id: *id, cx_centipx: *cx, distance_mm: *d }).unwrap();
+        }
+        let (a, b) = (detect(&t, &T11), detect(&t, &T12));
+        frame.tags.push(a).unwrap();
+        frame.tags.push(b).unwrap();
+        let report = slam.step(&frame);
+        prop_assert_eq!(report.fix, FixOutcome::Taken);
+        let fix = tagfix::two_tag_pose((&a, &T11), (&b, &T12), &CameraConfig::SEED, &FixConfig::SEED).unwrap();
+        prop_assert_eq!(report.pose, fix);
+        prop_assert_eq!(report.counters.fixes_taken, 1);
+    }
+
+    /// Degenerate sightings never give a fix and never panic: the same tag twice, one tag
+    /// alone, a seen baseline twice the true one.
+    #[test]
+    fn degenerate_sightings_are_refused(t in truth()) {
+        let (a, b) = (detect(&t, &T11), detect(&t, &T12));
+        let cam = CameraConfig::SEED;
+        let cfg = FixConfig::SEED;
+        // The same id twice: best_pair finds no pair; forced through two_tag_pose the true
+        // baseline is zero.
+        prop_assert!(tagfix::best_pair(&[a, a], &SlamConfig::seed_mat().tags).is_none());
+        prop_assert_eq!(tagfix::two_tag_pose((&a, &T11), (&a, &T11), &cam, &cfg), Err(FixRejection::Geometry));
+        // The seen baseline twice the true one (both ranges doubled).
+        let (a2, b2) = (
+            TagDetection { distance_mm: a.distance_mm * 2, ..a },
+            TagDetection { distance_mm: b.distance_mm * 2, ..b },
+        );
+        prop_assert_eq!(tagfix::two_tag_pose((&a2, &T11), (&b2, &T12), &cam, &cfg), Err(FixRejection::Geometry));
+
+        let step = |tags: &[TagDetection]| {
+            let mut slam: Slam<46, 46> = Slam::new(SlamConfig::seed_mat(), Pose::from_mm_mdeg(1000, 800, 0)).unwrap();
+            let mut frame = SensorFrame::empty(100_000);
+            frame.tags = tags.iter().collect();
+            let report = slam.step(&frame);
+            (report.fix, report.pose)
+        };
+        let still = Pose::from_mm_mdeg(1000, 800, 0);
+        prop_assert_eq!(step(&[a, a]), (FixOutcome::NotAttempted, still));
+        prop_assert_eq!(step(&[b]), (FixOutcome::NotAttempted, still));
+        prop_assert_eq!(step(&[]), (FixOutcome::NotAttempted, still));
+        prop_assert_eq!(step(&[a2, b2]), (FixOutcome::Rejected(FixRejection::Geometry), still));
+    }
+}
+
+/// A tag reported at distance 0 (a misread: a camera cannot see a tag it is touching)
+/// should not produce a fix. `two_tag_pose` does not look at the distances, so whenever the
+/// other tag happens to be 640..960 mm away (within the 20 % baseline tolerance of the
+/// 800 mm baseline) it returns a pose: the zero-range tag's own place averaged with a
+/// position computed from a heading that is off by the angle between the true baseline and
+/// the line to the other tag. Here from (1500, 1150) mm facing the far wall, tag 12 straight
+/// ahead 800 mm away and tag 11 "at 0 mm": the fix is (700, 1950) mm facing +x, 1.1 m and 90
+/// degrees from the truth.
+///
+/// Regression test for a bug, now fixed, in `slam-core/src/tagfix.rs` (`two_tag_pose`): it should reject a sighting
+/// at zero range (e.g. `FixRejection::Geometry` when either distance is below some minimum,
+/// or below `min_baseline_mm`). Through `Slam::step` the gate rejects this fix five times and
+/// then, by design, relocalises onto it on the sixth frame.
+#[test]
+fn tag_at_distance_zero_gives_no_fix() {
+    let t = Truth {
+        x_mm: 1500.0,
+        y_mm: 1150.0,
+        heading: 0.0,
+    };
+    let (mut a, b) = (detect(&t, &T11), detect(&t, &T12));
+    a.distance_mm = 0;
+    let fix = tagfix::two_tag_pose(
+        (&a, &T11),
+        (&b, &T12),
+        &CameraConfig::SEED,
+        &FixConfig::SEED,
+    );
+    let mut slam: Slam<46, 46> =
+        Slam::new(SlamConfig::seed_mat(), Pose::from_mm_mdeg(1500, 1150, 0)).unwrap();
+    let mut frame = SensorFrame::empty(100_000);
+    frame.tags = [a, b].iter().collect();
+    let outcomes: Vec<FixOutcome> = (0..6).map(|_| slam.step(&frame).fix).collect();
+    assert!(
+        fix.is_err(),
+        "a tag at 0 mm gave the fix {fix:?}; through Slam::step: {outcomes:?}, pose {:?}",
+        slam.pose()
+    );
+}
+
+/// Zero range on both tags, or a zero range where the other tag is far: refused (the
+/// baseline check catches these), never a panic.
+#[test]
+fn zero_ranges_elsewhere_are_refused() {
+    let t = Truth {
+        x_mm: 1000.0,
+        y_mm: 300.0,
+        heading: 0.0,
+    };
+    let (a, b) = (detect(&t, &T11), detect(&t, &T12));
+    for (a, b) in [
+        (
+            TagDetection {
+                distance_mm: 0,
+                ..a
+            },
+            TagDetection {
+                distance_mm: 0,
+                ..b
+            },
+        ),
+        (
+            TagDetection {
+                distance_mm: 0,
+                ..a
+            },
+            b,
+        ),
+    ] {
+        assert_eq!(
+            tagfix::two_tag_pose(
+                (&a, &T11),
+                (&b, &T12),
+                &CameraConfig::SEED,
+                &FixConfig::SEED
+            ),
+            Err(FixRejection::Geometry)
+        );
+    }
+}
+
+/// 20,000 pseudo-random poses: report the worst errors seen against the stated bounds.
+#[test]
+fn fix_error_survey() {
+    let mut state = 0x2545_F491_4F6C_DD1Du64;
+    let mut unit = move || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let (mut wr, mut wt) = ((0.0f64, 0.0f64), (0.0f64, 0.0f64));
+    let mut n = 0;
+    while n < 20_000 {
+        let t = Truth {
+            x_mm: 150.0 + 1700.0 * unit(),
+            y_mm: 150.0 + 1350.0 * unit(),
+            heading: (-50.0 + 100.0 * unit()).to_radians(),
+        };
+        let in_view = [T11, T12].iter().all(|tag| {
+            let s = reference::see(t.x_mm, t.y_mm, t.heading, place(tag));
+            reference::bearing(s.cx_px).abs() < 55f64.to_radians()
+        });
+        if !in_view {
+            continue;
+        }
+        n += 1;
+        let (a, b) = (detect(&t, &T11), detect(&t, &T12));
+        let fix = tagfix::two_tag_pose(
+            (&a, &T11),
+            (&b, &T12),
+            &CameraConfig::SEED,
+            &FixConfig::SEED,
+        )
+        .unwrap();
+        let want = reference::two_tag_fix(seen(&a), place(&T11), seen(&b), place(&T12));
+        let (p, h) = errors(&fix, want.x_mm, want.y_mm, want.heading);
+        wr = (wr.0.max(p), wr.1.max(h));
+        let (p, h) = errors(&fix, t.x_mm, t.y_mm, t.heading);
+        wt = (wt.0.max(p), wt.1.max(h));
+    }
+    println!(
+        "worst fix error vs reference {:.2} mm {:.3} deg, vs truth {:.2} mm {:.3} deg",
+        wr.0, wr.1, wt.0, wt.1
+    );
+    assert!(wr.0 <= VS_REFERENCE_MM && wr.1 <= VS_REFERENCE_DEG);
+    assert!(wt.0 <= VS_TRUTH_MM && wt.1 <= VS_TRUTH_DEG);
+}
