@@ -73,6 +73,9 @@ pub enum ConfigError {
 }
 
 impl SlamConfig {
+    /// Where the seed's robot starts: (70, 50) cm on the mat, facing the far wall (+y).
+    pub const SEED_START: Pose = Pose::from_mm_mdeg(700, 500, 0);
+
     /// The seed's world: 5 cm cells with a 15 cm margin round a 2 m mat, tags 11 and 12 on
     /// the far wall at (70, 195) and (150, 195) cm, and the seed's sensors.
     pub fn seed_mat() -> SlamConfig {

@@ -48,10 +48,11 @@ fn cargo() -> Command {
     Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
 }
 
-/// Every test the project has: the host crates, then the firmware build.
+/// Every test the project has: the host crates, then the firmware build with its
+/// flash and RAM budget check.
 fn test(_args: &[String]) -> Result<(), String> {
     run_cmd(cargo().args(["test", "--workspace", "--release"]))?;
-    Ok(())
+    firmware::run(&[])
 }
 
 /// Host benchmarks: simulated seconds per wall second and nanoseconds per `step`.
