@@ -13,6 +13,7 @@
 //! | `world.wall_tolerance_mm` | an occupied cell whose centre is this close to a wall is in place |
 //! | `[[world.tags]]` `id`, `x_mm`, `y_mm`, `width_mm`, `facing_deg` | an AprilTag card: the depth sensor sees the card, the camera reads the face |
 //! | `start` `x_mm`, `y_mm`, `heading_deg` | the true start; the core starts believing it |
+//! | `robot` `max_wheel_speed_mm_s`, `wheel_base_mm` | the differential drive, when the firmware commands the motors |
 //! | `sensors.tof` `fov_deg`, `max_range_mm`, `noise_mm`, `dropout` | 8 beams at the centres of 8 equal zones; zones with no return |
 //! | `sensors.flow` `um_per_count`, `scale_error`, `noise_counts`, `quality` | flow counts at 100 Hz; the firmware's calibration, the true scale error, noise per reading, surface quality |
 //! | `sensors.gyro` `bias_dps`, `scale_error`, `noise_dps` | yaw rate at 200 Hz: residual bias, scale error, noise per sample |
@@ -34,6 +35,7 @@ pub mod robot;
 pub mod route;
 pub mod run;
 pub mod scenario;
+pub mod serve;
 pub mod world;
 
 pub use record::RunRecord;

@@ -80,6 +80,7 @@ pub struct Robot {
     flow_pending_mm: (f64, f64),
     gyro_sum_mdps: i64,
     gyro_samples: i64,
+    last_gyro_mdps: i32,
 }
 
 impl Robot {
@@ -101,6 +102,7 @@ impl Robot {
             flow_pending_mm: (0.0, 0.0),
             gyro_sum_mdps: 0,
             gyro_samples: 0,
+            last_gyro_mdps: 0,
         }
     }
 
@@ -122,8 +124,14 @@ impl Robot {
     /// Moves the robot for `dt_s` seconds under `command`, sampling the gyro at 200 Hz and
     /// the flow sensor at 100 Hz on the way.
     pub fn advance(&mut self, dt_s: f64, command: Command) {
-        let steps = (dt_s / SUBSTEP_S).round().max(0.0) as u32;
-        for _ in 0..steps {
+        self.advance_to(self.time_s + dt_s, command);
+    }
+
+    /// Moves the robot under `command` until simulated time `t_s`, in whole 5 ms sub-steps
+    /// (a time between two sub-steps runs up to the earlier one; later calls catch up).
+    pub fn advance_to(&mut self, t_s: f64, command: Command) {
+        let target = (t_s / SUBSTEP_S + 1e-6).floor().max(0.0) as u64;
+        while (self.substeps as u64) < target {
             let turn = command.turn_dps * SUBSTEP_S;
             let dist = command.speed_mm_s * SUBSTEP_S;
             let mid = Vec2::heading(self.truth.heading_deg + turn / 2.0);
@@ -132,8 +140,8 @@ impl Robot {
             self.truth.heading_deg += turn;
             // The sensor sits at the centre of rotation: a turn on the spot moves no floor under it.
             self.flow_pending_mm.0 += dist;
-            self.time_s += SUBSTEP_S;
             self.substeps += 1;
+            self.time_s = self.substeps as f64 * SUBSTEP_S;
 
             let g = &self.scenario.sensors.gyro;
             let rate = command.turn_dps * (1.0 + g.scale_error)
@@ -161,6 +169,19 @@ impl Robot {
         self.flow_carry = (fx - cf, rx - cr);
         self.flow_sum.0 += cf as i64;
         self.flow_sum.1 += cr as i64;
+    }
+
+    /// Flow counts since the last call, as the sensor's motion registers hold them
+    /// (`forward`, `right`), and its surface quality.
+    pub fn take_flow(&mut self) -> (i64, i64, u8) {
+        let (f, r) = self.flow_sum;
+        self.flow_sum = (0, 0);
+        (f, r, self.scenario.sensors.flow.quality)
+    }
+
+    /// The gyro's newest 200 Hz sample, millidegrees per second.
+    pub fn gyro_sample_mdps(&self) -> i32 {
+        self.last_gyro_mdps
     }
 
     /// Flow and mean gyro rate since the last call, as the firmware's sensor tasks hand

@@ -23,6 +23,8 @@ pub struct Scenario {
     pub world: World,
     /// The robot's true starting pose; the core starts believing it.
     pub start: Start,
+    /// The robot's drive, for runs where the firmware commands the motors.
+    pub robot: Robot,
     /// Sensor models.
     pub sensors: Sensors,
     /// The grid the core maps into.
@@ -69,6 +71,16 @@ pub struct Start {
     pub y_mm: f64,
     /// Degrees clockwise from +y.
     pub heading_deg: f64,
+}
+
+/// The differential drive: how motor duty becomes motion.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Robot {
+    /// Wheel speed at full duty, millimetres per second.
+    pub max_wheel_speed_mm_s: f64,
+    /// Distance between the wheels, millimetres.
+    pub wheel_base_mm: f64,
 }
 
 /// All sensor models.
@@ -311,6 +323,8 @@ impl Scenario {
         c.range("start.y_mm", self.start.y_mm, -MAX_MM, MAX_MM);
         c.range("start.heading_deg", self.start.heading_deg, -360.0, 360.0);
 
+        c.positive("robot.max_wheel_speed_mm_s", self.robot.max_wheel_speed_mm_s, 5000.0);
+        c.positive("robot.wheel_base_mm", self.robot.wheel_base_mm, 2000.0);
         let s = &self.sensors;
         c.positive("sensors.tof.fov_deg", s.tof.fov_deg, 180.0);
         c.positive("sensors.tof.max_range_mm", s.tof.max_range_mm, 65_000.0);

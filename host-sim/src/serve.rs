@@ -1,0 +1,180 @@
+//! `host-sim serve`: the simulator as a device for an emulated robot.
+//!
+//! The emulator harness runs the real firmware and asks this process, over stdin and
+//! stdout, to move the world on and to read each sensor, so the emulated robot lives in
+//! the same physics as the host demos. One JSON object per line each way; every request
+//! gets exactly one reply line.
+//!
+//! | request | reply |
+//! |---|---|
+//! | `{"cmd":"advance","t_s":T,"left":L,"right":R}` | `{"t_s","x_mm","y_mm","heading_deg"}`: the world moved on to time `T` s with wheel duties `L`, `R` in [-1, 1] (positive forward) |
+//! | `{"cmd":"flow"}` | `{"forward_counts","right_counts","squal"}`: counts since the last flow read |
+//! | `{"cmd":"gyro"}` | `{"rate_mdps"}`: the newest 200 Hz yaw rate sample, bias and noise included |
+//! | `{"cmd":"depth"}` | `{"ranges_mm":[8 x (mm or null)]}`: the 8 beams, left to right |
+//! | `{"cmd":"tags"}` | `{"tags":[{"id","cx_px","distance_mm"}]}`: what the camera reads now |
+//! | `{"cmd":"truth"}` | as `advance`, without moving |
+//!
+//! A request that cannot be understood gets `{"error": "..."}` and the session goes on.
+
+use crate::robot::{Command, Robot};
+use crate::scenario::Scenario;
+use serde::{Deserialize, Serialize};
+use std::io::{BufRead, Write};
+
+/// One request line.
+#[derive(Debug, Deserialize, PartialEq)]
+#[serde(tag = "cmd", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Request {
+    /// Move the world on to `t_s` under these wheel duties.
+    Advance {
+        /// Simulated time to reach, seconds.
+        t_s: f64,
+        /// Left wheel duty, -1 to 1.
+        left: f64,
+        /// Right wheel duty, -1 to 1.
+        right: f64,
+    },
+    /// Read the flow sensor.
+    Flow,
+    /// Read the gyro.
+    Gyro,
+    /// Read the depth sensor.
+    Depth,
+    /// Read the camera.
+    Tags,
+    /// Where the robot really is.
+    Truth,
+}
+
+#[derive(Serialize)]
+struct TruthReply {
+    t_s: f64,
+    x_mm: f64,
+    y_mm: f64,
+    heading_deg: f64,
+}
+
+#[derive(Serialize)]
+struct TagReply {
+    id: u16,
+    cx_px: f64,
+    distance_mm: u32,
+}
+
+/// The motion a pair of wheel duties makes, by the scenario's drive.
+pub fn command_from_duty(scenario: &Scenario, left: f64, right: f64) -> Command {
+    let max = scenario.robot.max_wheel_speed_mm_s;
+    let (vl, vr) = (left.clamp(-1.0, 1.0) * max, right.clamp(-1.0, 1.0) * max);
+    Command {
+        speed_mm_s: (vl + vr) / 2.0,
+        // Left faster than right turns clockwise, which is a positive heading change.
+        turn_dps: ((vl - vr) / scenario.robot.wheel_base_mm).to_degrees(),
+    }
+}
+
+/// Answers one request, moving `robot` on if asked.
+pub fn answer(robot: &mut Robot, scenario: &Scenario, line: &str) -> String {
+    let request: Request = match serde_json::from_str(line) {
+        Ok(r) => r,
+        Err(e) => return serde_json::json!({ "error": format!("bad request: {e}") }).to_string(),
+    };
+    let truth = |robot: &Robot| {
+        let t = robot.truth();
+        serde_json::to_string(&TruthReply { t_s: robot.time_s(), x_mm: t.x_mm, y_mm: t.y_mm, heading_deg: t.heading_deg })
+    };
+    let reply = match request {
+        Request::Advance { t_s, left, right } => {
+            if !(t_s.is_finite() && left.is_finite() && right.is_finite()) {
+                return serde_json::json!({ "error": "advance needs finite t_s, left and right" }).to_string();
+            }
+            robot.advance_to(t_s, command_from_duty(scenario, left, right));
+            truth(robot)
+        }
+        Request::Truth => truth(robot),
+        Request::Flow => {
+            let (f, r, q) = robot.take_flow();
+            Ok(serde_json::json!({ "forward_counts": f, "right_counts": r, "squal": q }).to_string())
+        }
+        Request::Gyro => Ok(serde_json::json!({ "rate_mdps": robot.gyro_sample_mdps() }).to_string()),
+        Request::Depth => Ok(serde_json::json!({ "ranges_mm": robot.read_depth().ranges_mm }).to_string()),
+        Request::Tags => {
+            let tags: Vec<TagReply> = robot
+                .read_tags()
+                .as_slice()
+                .iter()
+                .map(|t| TagReply { id: t.id, cx_px: t.cx_centipx as f64 / 100.0, distance_mm: t.distance_mm })
+                .collect();
+            Ok(serde_json::json!({ "tags": tags }).to_string())
+        }
+    };
+    reply.unwrap_or_else(|e| serde_json::json!({ "error": e.to_string() }).to_string())
+}
+
+/// Serves requests from `input` until it ends.
+pub fn serve(scenario: &Scenario, seed: u64, input: impl BufRead, mut output: impl Write) -> std::io::Result<()> {
+    let mut robot = Robot::new(scenario, seed);
+    for line in input.lines() {
+        let line = line?;
+        if line.trim().is_empty() {
+            continue;
+        }
+        writeln!(output, "{}", answer(&mut robot, scenario, &line))?;
+        output.flush()?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn seed() -> Scenario {
+        let text = include_str!("../scenarios/seed-mat.toml");
+        match Scenario::parse(text) {
+            Ok(s) => s,
+            Err(e) => panic!("{e}"),
+        }
+    }
+
+    fn json(s: &str) -> serde_json::Value {
+        serde_json::from_str(s).unwrap_or_default()
+    }
+
+    #[test]
+    fn duty_makes_the_seed_motions() {
+        let s = seed();
+        let c = command_from_duty(&s, 86.0 / 300.0, 86.0 / 300.0);
+        assert!((c.speed_mm_s - 86.0).abs() < 1e-9 && c.turn_dps == 0.0);
+        // 31.5 deg/s on the spot: wheels at +-b/2 * omega.
+        let w = (31.5f64).to_radians() * 50.0 / 300.0;
+        let c = command_from_duty(&s, w, -w);
+        assert!((c.turn_dps - 31.5).abs() < 1e-9 && c.speed_mm_s.abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_session_moves_and_reads() {
+        let s = seed();
+        let input = concat!(
+            "{\"cmd\":\"advance\",\"t_s\":1.0,\"left\":0.5,\"right\":0.5}\n",
+            "{\"cmd\":\"flow\"}\n",
+            "{\"cmd\":\"gyro\"}\n",
+            "{\"cmd\":\"depth\"}\n",
+            "{\"cmd\":\"tags\"}\n",
+            "not json\n",
+            "{\"cmd\":\"advance\",\"t_s\":1.0,\"left\":NaN,\"right\":0}\n",
+        );
+        let mut out = Vec::new();
+        assert!(serve(&s, 1, input.as_bytes(), &mut out).is_ok());
+        let lines: Vec<serde_json::Value> = String::from_utf8_lossy(&out).lines().map(json).collect();
+        assert_eq!(lines.len(), 7);
+        assert!((lines[0]["y_mm"].as_f64().unwrap_or(0.0) - 650.0).abs() < 1.0, "{}", lines[0]);
+        // 150 mm at 100 um per count, 4 % short.
+        let counts = lines[1]["forward_counts"].as_i64().unwrap_or(0);
+        assert!((counts - 1440).abs() < 20, "{counts}");
+        assert!(lines[2]["rate_mdps"].as_i64().is_some());
+        assert_eq!(lines[3]["ranges_mm"].as_array().map(Vec::len), Some(8));
+        assert!(lines[4]["tags"].is_array());
+        assert!(lines[5]["error"].is_string());
+        assert!(lines[6]["error"].is_string());
+    }
+}
