@@ -36,6 +36,7 @@ pub mod route;
 pub mod run;
 pub mod scenario;
 pub mod serve;
+pub mod telemetry;
 pub mod world;
 
 pub use record::RunRecord;

@@ -1,20 +1,32 @@
 //! `host-sim`: run a scenario and print its figures, or benchmark the simulator and the core.
 //!
 //! ```text
-//! host-sim run <scenario.toml> [--pose truth|dead-reckoning|tags] [--seed N] [--json] [--out DIR]
+//! host-sim run <scenario.toml> [--pose truth|dead-reckoning|tags] [--seed N] [--json] [--out DIR] [--telemetry FILE]
+//! host-sim view <FILE | serial device> [--out DIR] [--baud N] [--seconds N] [--json]
 //! host-sim bench [<scenario.toml>]
 //! ```
-//! Exit codes: 0 done, 1 the pictures could not be written, 2 bad arguments or scenario.
+//! `run --telemetry FILE` also writes the telemetry stream the robot would send on that
+//! run; `view` decodes such a stream, from a file or live from the robot's serial port
+//! (until end of file, Ctrl-C or `--seconds`), prints what it held and draws the same two
+//! pictures.
+//!
+//! Exit codes: 0 done, 1 the pictures or the stream could not be written, 2 bad
+//! arguments, scenario or stream.
 
-use host_sim::run::{run, Figures, PoseMode};
-use host_sim::{picture, Scenario};
+use host_sim::run::{run, run_with_telemetry, Figures, PoseMode};
+use host_sim::telemetry::{Recording, TelemetryWriter};
+use host_sim::{picture, RunRecord, Scenario};
 use slam_core::SeedSlam;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::time::Instant;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
 
 const USAGE: &str = "usage:
-  host-sim run <scenario.toml> [--pose truth|dead-reckoning|tags] [--seed N] [--json] [--out DIR]
+  host-sim run <scenario.toml> [--pose truth|dead-reckoning|tags] [--seed N] [--json] [--out DIR] [--telemetry FILE]
+  host-sim view <FILE | serial device> [--out DIR] [--baud N] [--seconds N] [--json]
+  host-sim serve <scenario.toml> [--seed N]     (JSON lines on stdin/stdout, for the emulator)
   host-sim bench [<scenario.toml>]";
 
 /// A failure and the exit code it earns.
@@ -24,6 +36,8 @@ fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let result = match args.first().map(String::as_str) {
         Some("run") => cmd_run(&args[1..]),
+        Some("view") => cmd_view(&args[1..]),
+        Some("serve") => cmd_serve(&args[1..]),
         Some("bench") => cmd_bench(&args[1..]),
         Some("-h" | "--help") => {
             println!("{USAGE}");
@@ -46,6 +60,7 @@ struct RunArgs {
     seed: Option<u64>,
     json: bool,
     out: Option<PathBuf>,
+    telemetry: Option<PathBuf>,
 }
 
 fn parse_run_args(args: &[String]) -> Result<RunArgs, Failure> {
@@ -57,6 +72,7 @@ fn parse_run_args(args: &[String]) -> Result<RunArgs, Failure> {
         seed: None,
         json: false,
         out: None,
+        telemetry: None,
     };
     let mut scenario = None;
     while let Some(arg) = it.next() {
@@ -76,6 +92,7 @@ fn parse_run_args(args: &[String]) -> Result<RunArgs, Failure> {
             }
             "--json" => parsed.json = true,
             "--out" => parsed.out = Some(PathBuf::from(value("--out")?)),
+            "--telemetry" => parsed.telemetry = Some(PathBuf::from(value("--telemetry")?)),
             flag if flag.starts_with("--") => return Err(bad(format!("unknown option `{flag}`"))),
             path if scenario.is_none() => scenario = Some(PathBuf::from(path)),
             extra => return Err(bad(format!("unexpected argument `{extra}`"))),
@@ -93,7 +110,13 @@ fn cmd_run(args: &[String]) -> Result<(), Failure> {
     let args = parse_run_args(args)?;
     let scenario = load(&args.scenario)?;
     let seed = args.seed.unwrap_or(scenario.seed);
-    let output = run(&scenario, args.pose, seed).map_err(|e| Failure(2, e.to_string()))?;
+    let mut writer = args.telemetry.as_ref().map(|_| TelemetryWriter::new());
+    let output = run_with_telemetry(&scenario, args.pose, seed, writer.as_mut())
+        .map_err(|e| Failure(2, e.to_string()))?;
+    if let (Some(path), Some(writer)) = (&args.telemetry, &writer) {
+        std::fs::write(path, writer.bytes())
+            .map_err(|e| Failure(1, format!("cannot write {}: {e}", path.display())))?;
+    }
     if args.json {
         let json = serde_json::to_string(&output.figures).map_err(|e| Failure(1, e.to_string()))?;
         println!("{json}");
@@ -104,12 +127,164 @@ fn cmd_run(args: &[String]) -> Result<(), Failure> {
         std::fs::create_dir_all(&dir)
             .map_err(|e| Failure(1, format!("cannot create {}: {e}", dir.display())))?;
         let stem = format!("{}-{}", scenario.name, args.pose.name());
-        let map = dir.join(format!("{stem}-map.png"));
-        let chart = dir.join(format!("{stem}-chart.png"));
-        picture::map_png(&output.record, &map)
-            .map_err(|e| Failure(1, format!("{}: {e}", map.display())))?;
-        picture::chart_png(&output.record, &chart)
-            .map_err(|e| Failure(1, format!("{}: {e}", chart.display())))?;
+        let (map, chart) = write_pictures(&output.record, &dir, &stem)?;
+        if !args.json {
+            println!("pictures: {} {}", map.display(), chart.display());
+        }
+    }
+    Ok(())
+}
+
+/// Writes `DIR/STEM-map.png` and `DIR/STEM-chart.png`, creating `dir`.
+fn write_pictures(
+    record: &RunRecord,
+    dir: &Path,
+    stem: &str,
+) -> Result<(PathBuf, PathBuf), Failure> {
+    std::fs::create_dir_all(dir)
+        .map_err(|e| Failure(1, format!("cannot create {}: {e}", dir.display())))?;
+    let map = dir.join(format!("{stem}-map.png"));
+    let chart = dir.join(format!("{stem}-chart.png"));
+    picture::map_png(record, &map).map_err(|e| Failure(1, format!("{}: {e}", map.display())))?;
+    picture::chart_png(record, &chart)
+        .map_err(|e| Failure(1, format!("{}: {e}", chart.display())))?;
+    Ok((map, chart))
+}
+
+struct ViewArgs {
+    source: PathBuf,
+    out: Option<PathBuf>,
+    baud: u32,
+    seconds: Option<f64>,
+    json: bool,
+}
+
+fn parse_view_args(args: &[String]) -> Result<ViewArgs, Failure> {
+    let bad = |m: String| Failure(2, format!("{m}\n{USAGE}"));
+    let mut it = args.iter();
+    let mut parsed = ViewArgs {
+        source: PathBuf::new(),
+        out: None,
+        baud: 115_200,
+        seconds: None,
+        json: false,
+    };
+    let mut source = None;
+    while let Some(arg) = it.next() {
+        let mut value = |name: &str| {
+            it.next()
+                .cloned()
+                .ok_or_else(|| bad(format!("{name} needs a value")))
+        };
+        match arg.as_str() {
+            "--out" => parsed.out = Some(PathBuf::from(value("--out")?)),
+            "--baud" => {
+                let v = value("--baud")?;
+                parsed.baud = v.parse().ok().filter(|&b| b > 0).ok_or_else(|| {
+                    bad(format!("--baud wants a positive whole number, got `{v}`"))
+                })?;
+            }
+            "--seconds" => {
+                let v = value("--seconds")?;
+                parsed.seconds = Some(
+                    v.parse::<f64>()
+                        .ok()
+                        .filter(|s| s.is_finite() && *s > 0.0 && *s < 1e9)
+                        .ok_or_else(|| {
+                            bad(format!("--seconds wants a positive number, got `{v}`"))
+                        })?,
+                );
+            }
+            "--json" => parsed.json = true,
+            flag if flag.starts_with("--") => return Err(bad(format!("unknown option `{flag}`"))),
+            path if source.is_none() => source = Some(PathBuf::from(path)),
+            extra => return Err(bad(format!("unexpected argument `{extra}`"))),
+        }
+    }
+    parsed.source = source
+        .ok_or_else(|| bad("which stream? give a telemetry file or a serial device".into()))?;
+    Ok(parsed)
+}
+
+/// Whether `path` names a serial device rather than a recorded file.
+fn is_serial_device(path: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if let Ok(meta) = std::fs::metadata(path) {
+            return meta.file_type().is_char_device();
+        }
+    }
+    let name = path.to_string_lossy();
+    name.starts_with("/dev/") || name.to_ascii_uppercase().starts_with("COM")
+}
+
+/// Decodes a telemetry stream, prints what it held and draws its pictures.
+fn cmd_view(args: &[String]) -> Result<(), Failure> {
+    let args = parse_view_args(args)?;
+    let shown = args.source.display().to_string();
+    let stop = Arc::new(AtomicBool::new(false));
+    let deadline = args
+        .seconds
+        .map(|s| Instant::now() + Duration::from_secs_f64(s));
+    let mut recording = Recording::new();
+    let serial = is_serial_device(&args.source);
+    let read = if serial {
+        // Ctrl-C ends a live view; the pictures are still drawn. If a handler cannot be
+        // set, Ctrl-C simply ends the process as usual.
+        let flag = Arc::clone(&stop);
+        let _ = ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed));
+        let mut port = serialport::new(shown.as_str(), args.baud)
+            .timeout(Duration::from_millis(200))
+            .open()
+            .map_err(|e| Failure(2, format!("cannot open serial port {shown}: {e}")))?;
+        if !args.json {
+            eprintln!(
+                "host-sim: reading {shown} at {} baud; Ctrl-C to stop",
+                args.baud
+            );
+        }
+        recording.read_from(&mut port, &stop, deadline)
+    } else {
+        let mut file = std::fs::File::open(&args.source)
+            .map_err(|e| Failure(2, format!("cannot read {shown}: {e}")))?;
+        recording.read_from(&mut file, &stop, deadline)
+    };
+    if let Err(e) = read {
+        // What came before the error is kept: a robot unplugged mid-run still has a run.
+        eprintln!("host-sim: reading {shown} stopped: {e}");
+    }
+    let summary = recording.summary();
+    if summary.frames_ok == 0 {
+        return Err(Failure(
+            2,
+            format!(
+                "{shown}: no telemetry frames in it ({} bad frames): is it a BugBot telemetry stream?",
+                summary.bad_frames.total
+            ),
+        ));
+    }
+    if args.json {
+        let json = serde_json::to_string(&summary).map_err(|e| Failure(1, e.to_string()))?;
+        println!("{json}");
+    } else {
+        println!("{summary}");
+        if recording.decoder.has_partial_frame() {
+            println!("the stream ends inside a frame (cut short)");
+        }
+    }
+    if let Some(dir) = &args.out {
+        let stem = if serial {
+            "robot".to_string()
+        } else {
+            args.source
+                .file_stem()
+                .map_or("telemetry".to_string(), |s| {
+                    s.to_string_lossy().into_owned()
+                })
+        };
+        let record = recording.recorder.record(&stem);
+        let (map, chart) = write_pictures(&record, dir, &stem)?;
         if !args.json {
             println!("pictures: {} {}", map.display(), chart.display());
         }
@@ -139,6 +314,27 @@ fn print_summary(name: &str, mode: PoseMode, seed: u64, f: &Figures) {
         "final pose error {:.1} cm, heading error {:.1} deg",
         f.final_error_cm, f.final_heading_error_deg
     );
+}
+
+/// The simulator as the emulated robot's world: see `host_sim::serve`.
+fn cmd_serve(args: &[String]) -> Result<(), Failure> {
+    let bad = |m: String| Failure(2, format!("{m}\n{USAGE}"));
+    let (path, seed) = match args {
+        [path] => (path, None),
+        [path, flag, n] if flag == "--seed" => (
+            path,
+            Some(
+                n.parse::<u64>()
+                    .map_err(|_| bad(format!("--seed wants a whole number, got `{n}`")))?,
+            ),
+        ),
+        _ => return Err(bad("serve takes a scenario and an optional --seed N".into())),
+    };
+    let scenario = load(Path::new(path))?;
+    let stdin = std::io::stdin().lock();
+    let stdout = std::io::stdout().lock();
+    host_sim::serve::serve(&scenario, seed.unwrap_or(scenario.seed), stdin, stdout)
+        .map_err(|e| Failure(1, format!("serve: {e}")))
 }
 
 /// Simulated seconds per wall second on the seed route, and host nanoseconds per `step`.

@@ -4,6 +4,7 @@ use crate::record::{CellBelief, MapSnapshot, RunRecord, TickRecord, WorldOutline
 use crate::robot::{wrap_deg, Robot, TruePose};
 use crate::route::Route;
 use crate::scenario::Scenario;
+use crate::telemetry::TelemetryWriter;
 use crate::world::{Vec2, World};
 use serde::Serialize;
 use slam_core::{
@@ -174,6 +175,16 @@ pub struct RunOutput {
 
 /// Runs a scenario to the end of its route.
 pub fn run(scenario: &Scenario, mode: PoseMode, seed: u64) -> Result<RunOutput, RunError> {
+    run_with_telemetry(scenario, mode, seed, None)
+}
+
+/// [`run`], also writing the telemetry stream the robot would send into `telemetry`.
+pub fn run_with_telemetry(
+    scenario: &Scenario,
+    mode: PoseMode,
+    seed: u64,
+    telemetry: Option<&mut TelemetryWriter>,
+) -> Result<RunOutput, RunError> {
     let cell = scenario.grid.cell_mm.max(1) as f64;
     let (mut max_x, mut max_y) = (f64::MIN, f64::MIN);
     for p in scenario.world.walls.iter().flatten() {
@@ -184,9 +195,9 @@ pub fn run(scenario: &Scenario, mode: PoseMode, seed: u64) -> Result<RunOutput, 
     let columns = ((max_x - scenario.grid.origin_x_mm as f64) / cell).ceil() as i64 + 1;
     let rows = ((max_y - scenario.grid.origin_y_mm as f64) / cell).ceil() as i64 + 1;
     if columns <= 46 && rows <= 46 {
-        run_sized::<46, 46>(scenario, mode, seed)
+        run_sized::<46, 46>(scenario, mode, seed, telemetry)
     } else if columns <= 206 && rows <= 206 {
-        run_sized::<206, 206>(scenario, mode, seed)
+        run_sized::<206, 206>(scenario, mode, seed, telemetry)
     } else {
         Err(RunError::GridTooLarge { columns, rows })
     }
@@ -196,6 +207,7 @@ fn run_sized<const W: usize, const H: usize>(
     scenario: &Scenario,
     mode: PoseMode,
     seed: u64,
+    mut telemetry: Option<&mut TelemetryWriter>,
 ) -> Result<RunOutput, RunError> {
     let mut config = slam_config(scenario);
     config.fix.enabled = mode == PoseMode::Tags;
@@ -226,6 +238,10 @@ fn run_sized<const W: usize, const H: usize>(
             external_pose: (mode == PoseMode::Truth).then(|| to_core_pose(&truth)),
         };
         let report = slam.step(&frame);
+        if let Some(t) = telemetry.as_mut() {
+            let time_ms = (ticks.len() as f64 * TICK_S * 1000.0).round() as u32;
+            t.tick(time_ms, &report, slam.map());
+        }
         frames.push(frame);
         let fix_taken = report.fix == FixOutcome::Taken;
         if fix_taken && first_fix.is_none() {
@@ -254,6 +270,9 @@ fn run_sized<const W: usize, const H: usize>(
         route.after_tick(robot.truth(), TICK_S);
     }
 
+    if let Some(t) = telemetry {
+        t.finish(slam.map());
+    }
     let final_counts = map_counts(slam.map(), &real);
     if let Some(last) = ticks.last_mut() {
         last.out_of_place_pct = final_counts.out_of_place_pct();

@@ -323,7 +323,11 @@ impl Scenario {
         c.range("start.y_mm", self.start.y_mm, -MAX_MM, MAX_MM);
         c.range("start.heading_deg", self.start.heading_deg, -360.0, 360.0);
 
-        c.positive("robot.max_wheel_speed_mm_s", self.robot.max_wheel_speed_mm_s, 5000.0);
+        c.positive(
+            "robot.max_wheel_speed_mm_s",
+            self.robot.max_wheel_speed_mm_s,
+            5000.0,
+        );
         c.positive("robot.wheel_base_mm", self.robot.wheel_base_mm, 2000.0);
         let s = &self.sensors;
         c.positive("sensors.tof.fov_deg", s.tof.fov_deg, 180.0);

@@ -80,12 +80,18 @@ pub fn answer(robot: &mut Robot, scenario: &Scenario, line: &str) -> String {
     };
     let truth = |robot: &Robot| {
         let t = robot.truth();
-        serde_json::to_string(&TruthReply { t_s: robot.time_s(), x_mm: t.x_mm, y_mm: t.y_mm, heading_deg: t.heading_deg })
+        serde_json::to_string(&TruthReply {
+            t_s: robot.time_s(),
+            x_mm: t.x_mm,
+            y_mm: t.y_mm,
+            heading_deg: t.heading_deg,
+        })
     };
     let reply = match request {
         Request::Advance { t_s, left, right } => {
             if !(t_s.is_finite() && left.is_finite() && right.is_finite()) {
-                return serde_json::json!({ "error": "advance needs finite t_s, left and right" }).to_string();
+                return serde_json::json!({ "error": "advance needs finite t_s, left and right" })
+                    .to_string();
             }
             robot.advance_to(t_s, command_from_duty(scenario, left, right));
             truth(robot)
@@ -93,16 +99,27 @@ pub fn answer(robot: &mut Robot, scenario: &Scenario, line: &str) -> String {
         Request::Truth => truth(robot),
         Request::Flow => {
             let (f, r, q) = robot.take_flow();
-            Ok(serde_json::json!({ "forward_counts": f, "right_counts": r, "squal": q }).to_string())
+            Ok(
+                serde_json::json!({ "forward_counts": f, "right_counts": r, "squal": q })
+                    .to_string(),
+            )
         }
-        Request::Gyro => Ok(serde_json::json!({ "rate_mdps": robot.gyro_sample_mdps() }).to_string()),
-        Request::Depth => Ok(serde_json::json!({ "ranges_mm": robot.read_depth().ranges_mm }).to_string()),
+        Request::Gyro => {
+            Ok(serde_json::json!({ "rate_mdps": robot.gyro_sample_mdps() }).to_string())
+        }
+        Request::Depth => {
+            Ok(serde_json::json!({ "ranges_mm": robot.read_depth().ranges_mm }).to_string())
+        }
         Request::Tags => {
             let tags: Vec<TagReply> = robot
                 .read_tags()
                 .as_slice()
                 .iter()
-                .map(|t| TagReply { id: t.id, cx_px: t.cx_centipx as f64 / 100.0, distance_mm: t.distance_mm })
+                .map(|t| TagReply {
+                    id: t.id,
+                    cx_px: t.cx_centipx as f64 / 100.0,
+                    distance_mm: t.distance_mm,
+                })
                 .collect();
             Ok(serde_json::json!({ "tags": tags }).to_string())
         }
@@ -111,7 +128,12 @@ pub fn answer(robot: &mut Robot, scenario: &Scenario, line: &str) -> String {
 }
 
 /// Serves requests from `input` until it ends.
-pub fn serve(scenario: &Scenario, seed: u64, input: impl BufRead, mut output: impl Write) -> std::io::Result<()> {
+pub fn serve(
+    scenario: &Scenario,
+    seed: u64,
+    input: impl BufRead,
+    mut output: impl Write,
+) -> std::io::Result<()> {
     let mut robot = Robot::new(scenario, seed);
     for line in input.lines() {
         let line = line?;
@@ -165,9 +187,14 @@ mod tests {
         );
         let mut out = Vec::new();
         assert!(serve(&s, 1, input.as_bytes(), &mut out).is_ok());
-        let lines: Vec<serde_json::Value> = String::from_utf8_lossy(&out).lines().map(json).collect();
+        let lines: Vec<serde_json::Value> =
+            String::from_utf8_lossy(&out).lines().map(json).collect();
         assert_eq!(lines.len(), 7);
-        assert!((lines[0]["y_mm"].as_f64().unwrap_or(0.0) - 650.0).abs() < 1.0, "{}", lines[0]);
+        assert!(
+            (lines[0]["y_mm"].as_f64().unwrap_or(0.0) - 650.0).abs() < 1.0,
+            "{}",
+            lines[0]
+        );
         // 150 mm at 100 um per count, 4 % short.
         let counts = lines[1]["forward_counts"].as_i64().unwrap_or(0);
         assert!((counts - 1440).abs() < 20, "{counts}");

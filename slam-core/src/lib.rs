@@ -18,6 +18,7 @@ pub mod odometry;
 pub mod pose;
 pub mod slam;
 pub mod tagfix;
+pub mod telemetry;
 
 pub use angle::Angle;
 pub use frame::{

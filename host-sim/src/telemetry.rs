@@ -1,0 +1,588 @@
+//! The host's end of the robot's telemetry stream (`slam_core::telemetry`).
+//!
+//! [`TelemetryWriter`] is the simulator's sink: it calls the same [`Streamer`] and
+//! [`encode`] the firmware calls, so `host-sim run --telemetry FILE` writes the bytes a
+//! robot on the same route would send. [`TelemetryRecorder`] goes the other way: it takes
+//! decoded messages from a file or a serial port and builds a [`RunRecord`], so
+//! [`crate::picture`] draws a real robot's run as it draws a simulated one.
+//!
+//! A robot knows nothing of the truth: in a record built from telemetry every truth and
+//! error field is NaN (the pictures leave NaN out), the world outline is empty and no
+//! cell is marked out of place.
+
+use crate::record::{CellBelief, MapSnapshot, RunRecord, TickRecord, WorldOutline};
+use serde::Serialize;
+use slam_core::telemetry::{
+    encode, DecoderStats, FirmwareVersion, Hello, MapRows, Message, Schedule, SensorHealth,
+    StreamDecoder, Streamer, Tick, MAX_FRAME_LEN,
+};
+use slam_core::{Counters, FixOutcome, GridMap, Occupancy, StepReport};
+use std::fmt;
+use std::io::{self, Read};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+/// The firmware version the simulator claims in its `Hello`: this crate's.
+pub fn simulator_firmware() -> FirmwareVersion {
+    let part = |s: &str| s.parse().unwrap_or(0);
+    FirmwareVersion {
+        major: part(env!("CARGO_PKG_VERSION_MAJOR")),
+        minor: part(env!("CARGO_PKG_VERSION_MINOR")),
+        patch: part(env!("CARGO_PKG_VERSION_PATCH")),
+    }
+}
+
+/// The simulator's telemetry sink: frames every tick's messages into a byte buffer.
+pub struct TelemetryWriter {
+    streamer: Streamer,
+    bytes: Vec<u8>,
+    encode_errors: u32,
+}
+
+impl Default for TelemetryWriter {
+    fn default() -> Self {
+        TelemetryWriter::new()
+    }
+}
+
+impl TelemetryWriter {
+    /// An empty stream on the firmware's default schedule.
+    pub fn new() -> TelemetryWriter {
+        TelemetryWriter {
+            streamer: Streamer::new(Schedule::DEFAULT, simulator_firmware()),
+            bytes: Vec::new(),
+            encode_errors: 0,
+        }
+    }
+
+    /// One tick's messages, after `step` returned `report`; `time_ms` since the start.
+    ///
+    /// The simulator has no buses, so its health is what the core saw: a tick without a
+    /// depth scan counts as a depth timeout, a tick without flow as flow with no surface,
+    /// a tick without gyro as a gyro bus error, and every tick feeds the watchdog.
+    pub fn tick<const W: usize, const H: usize>(
+        &mut self,
+        time_ms: u32,
+        report: &StepReport,
+        map: &GridMap<W, H>,
+    ) {
+        let c = &report.counters;
+        let health = SensorHealth {
+            depth_timeouts: c.depth_stale,
+            flow_no_surface: c.flow_stale,
+            gyro_bus_errors: c.gyro_stale,
+            watchdog_feeds: c.ticks,
+            ..SensorHealth::default()
+        };
+        let (bytes, errors) = (&mut self.bytes, &mut self.encode_errors);
+        self.streamer
+            .tick(time_ms, report, map, &health, |m| push(bytes, errors, m));
+    }
+
+    /// The end of the run: the whole map once more, so the viewer's map is the final one.
+    pub fn finish<const W: usize, const H: usize>(&mut self, map: &GridMap<W, H>) {
+        let (bytes, errors) = (&mut self.bytes, &mut self.encode_errors);
+        self.streamer
+            .send_whole_map(map, |m| push(bytes, errors, m));
+    }
+
+    /// The stream so far.
+    pub fn bytes(&self) -> &[u8] {
+        &self.bytes
+    }
+
+    /// Messages that could not be framed (always 0: every message fits a frame).
+    pub fn encode_errors(&self) -> u32 {
+        self.encode_errors
+    }
+}
+
+fn push(bytes: &mut Vec<u8>, errors: &mut u32, message: &Message) {
+    let mut frame = [0u8; MAX_FRAME_LEN];
+    match encode(message, &mut frame) {
+        Ok(n) => bytes.extend_from_slice(frame.get(..n).unwrap_or(&[])),
+        Err(_) => *errors += 1,
+    }
+}
+
+/// Builds a run's record from a robot's messages.
+#[derive(Clone, Debug, Default)]
+pub struct TelemetryRecorder {
+    hello: Option<Hello>,
+    /// The latest cell bytes, `width * height`, row-major from the lowest row.
+    cells: Vec<i8>,
+    ticks: Vec<TickRecord>,
+    last_tick: Option<Tick>,
+    health: Option<SensorHealth>,
+    hellos: u32,
+    map_rows: u32,
+    map_rows_refused: u32,
+    restarts: u32,
+}
+
+impl TelemetryRecorder {
+    /// Nothing received yet.
+    pub fn new() -> TelemetryRecorder {
+        TelemetryRecorder::default()
+    }
+
+    /// Takes one decoded message.
+    pub fn push(&mut self, message: &Message) {
+        match message {
+            Message::Hello(h) => self.take_hello(h),
+            Message::Tick(t) => self.take_tick(t),
+            Message::MapRows(r) => self.take_map_rows(r),
+            Message::Health(h) => self.health = Some(*h),
+        }
+    }
+
+    fn take_hello(&mut self, h: &Hello) {
+        self.hellos += 1;
+        let same_grid = self.hello.is_some_and(|old| {
+            (
+                old.width,
+                old.height,
+                old.cell_mm,
+                old.origin_x_mm,
+                old.origin_y_mm,
+            ) == (h.width, h.height, h.cell_mm, h.origin_x_mm, h.origin_y_mm)
+        });
+        if !same_grid {
+            // A new grid (or the first): start its map empty.
+            self.cells = vec![0; usize::from(h.width) * usize::from(h.height)];
+        }
+        self.hello = Some(*h);
+    }
+
+    fn take_tick(&mut self, t: &Tick) {
+        if self.last_tick.is_some_and(|last| t.tick <= last.tick) {
+            // The robot started over (a reset): its ticks carry on in the same record.
+            self.restarts += 1;
+        }
+        let pose = t.pose();
+        let known_pct = match self.hello {
+            Some(h) if !self.cells.is_empty() => {
+                let scale = h.scale();
+                let known = self
+                    .cells
+                    .iter()
+                    .filter(|&&c| scale.belief(c) != Occupancy::Unknown)
+                    .count();
+                100.0 * known as f64 / self.cells.len() as f64
+            }
+            _ => f64::NAN,
+        };
+        self.ticks.push(TickRecord {
+            t_s: f64::from(t.time_ms) / 1000.0,
+            truth_mm: (f64::NAN, f64::NAN),
+            truth_heading_deg: f64::NAN,
+            estimate_mm: (f64::from(pose.x_um) / 1000.0, f64::from(pose.y_um) / 1000.0),
+            estimate_heading_deg: f64::from(pose.heading.to_microdegrees()) / 1e6,
+            known_pct,
+            error_cm: f64::NAN,
+            heading_error_deg: f64::NAN,
+            out_of_place_pct: f64::NAN,
+            fix_taken: t.fix == FixOutcome::Taken,
+        });
+        self.last_tick = Some(*t);
+    }
+
+    fn take_map_rows(&mut self, r: &MapRows) {
+        let Some(h) = self.hello else {
+            // Joined late: the map waits for the next Hello to say how big it is.
+            self.map_rows_refused += 1;
+            return;
+        };
+        let width = usize::from(h.width);
+        let start = usize::from(r.first_row) * width + usize::from(r.first_column);
+        let cells = r.cells.as_slice();
+        let slot = start
+            .checked_add(cells.len())
+            .and_then(|end| self.cells.get_mut(start..end));
+        match slot {
+            Some(slot) if usize::from(r.first_column) < width => {
+                slot.copy_from_slice(cells);
+                self.map_rows += 1;
+            }
+            _ => self.map_rows_refused += 1,
+        }
+    }
+
+    /// The latest `Hello`, if one came.
+    pub fn hello(&self) -> Option<&Hello> {
+        self.hello.as_ref()
+    }
+
+    /// The last `Tick` received.
+    pub fn last_tick(&self) -> Option<&Tick> {
+        self.last_tick.as_ref()
+    }
+
+    /// The latest sensor health received.
+    pub fn latest_health(&self) -> Option<&SensorHealth> {
+        self.health.as_ref()
+    }
+
+    /// Ticks received.
+    pub fn tick_count(&self) -> usize {
+        self.ticks.len()
+    }
+
+    /// The latest map as beliefs, row-major from the lowest row; empty before a `Hello`.
+    pub fn beliefs(&self) -> Vec<CellBelief> {
+        let Some(h) = self.hello else {
+            return Vec::new();
+        };
+        let scale = h.scale();
+        self.cells
+            .iter()
+            .map(|&c| match scale.belief(c) {
+                Occupancy::Free => CellBelief::Free,
+                Occupancy::Occupied => CellBelief::Occupied,
+                Occupancy::Unknown => CellBelief::Unknown,
+            })
+            .collect()
+    }
+
+    /// The run as the pictures want it, named `name`.
+    pub fn record(&self, name: &str) -> RunRecord {
+        let (width, height, cell_mm, ox, oy) = self.hello.map_or((0, 0, 0, 0, 0), |h| {
+            (
+                usize::from(h.width),
+                usize::from(h.height),
+                h.cell_mm,
+                h.origin_x_mm,
+                h.origin_y_mm,
+            )
+        });
+        RunRecord {
+            scenario: name.to_string(),
+            pose_mode: "robot telemetry".to_string(),
+            ticks: self.ticks.clone(),
+            map: MapSnapshot {
+                width,
+                height,
+                cell_mm: f64::from(cell_mm),
+                origin_x_mm: f64::from(ox),
+                origin_y_mm: f64::from(oy),
+                cells: self.beliefs(),
+                out_of_place: Vec::new(),
+            },
+            world: WorldOutline::default(),
+        }
+    }
+
+    /// What came in, for the summary; `stats` are the decoder's counts.
+    pub fn summary(&self, stats: &DecoderStats) -> Summary {
+        let beliefs = self.beliefs();
+        let count = |b: CellBelief| beliefs.iter().filter(|&&c| c == b).count();
+        Summary {
+            ticks: self.ticks.len(),
+            duration_s: self.ticks.last().map_or(0.0, |t| t.t_s),
+            fixes: self.ticks.iter().filter(|t| t.fix_taken).count(),
+            first_fix_s: self.ticks.iter().find(|t| t.fix_taken).map(|t| t.t_s),
+            final_pose: self.last_tick.map(|t| {
+                let p = t.pose();
+                FinalPose {
+                    x_um: p.x_um,
+                    y_um: p.y_um,
+                    heading_deg: f64::from(p.heading.to_microdegrees()) / 1e6,
+                }
+            }),
+            counters: self.last_tick.map(|t| CountersSummary::from(&t.counters)),
+            health: self.health.map(HealthSummary::from),
+            firmware: self.hello.map(|h| {
+                format!(
+                    "{}.{}.{}",
+                    h.firmware.major, h.firmware.minor, h.firmware.patch
+                )
+            }),
+            grid: self.hello.map(|h| (h.width, h.height)),
+            free: count(CellBelief::Free),
+            occupied: count(CellBelief::Occupied),
+            hellos: self.hellos,
+            map_rows: self.map_rows,
+            map_rows_refused: self.map_rows_refused,
+            restarts: self.restarts,
+            frames_ok: stats.frames_ok,
+            bad_frames: BadFrames {
+                total: stats.bad_frames(),
+                overlong: stats.overlong,
+                bad_cobs: stats.bad_cobs,
+                too_short: stats.too_short,
+                bad_crc: stats.bad_crc,
+                bad_version: stats.bad_version,
+                bad_body: stats.bad_body,
+            },
+        }
+    }
+}
+
+/// The pose in the last tick received.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct FinalPose {
+    /// Micrometres.
+    pub x_um: i32,
+    /// Micrometres.
+    pub y_um: i32,
+    /// Degrees clockwise from +y, in [-180, 180).
+    pub heading_deg: f64,
+}
+
+/// The core's counters, as the summary prints them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct CountersSummary {
+    /// Steps run.
+    pub ticks: u32,
+    /// Tag fixes taken.
+    pub fixes_taken: u32,
+    /// Fixes refused for their geometry.
+    pub fixes_rejected_geometry: u32,
+    /// Fixes refused by the gate.
+    pub fixes_rejected_gate: u32,
+    /// Fixes taken against the gate.
+    pub relocalisations: u32,
+    /// Beams mapped.
+    pub beams_mapped: u32,
+    /// Beams with no return.
+    pub beams_invalid: u32,
+    /// Ticks without flow.
+    pub flow_stale: u32,
+    /// Ticks without gyro.
+    pub gyro_stale: u32,
+    /// Ticks without depth.
+    pub depth_stale: u32,
+}
+
+impl From<&Counters> for CountersSummary {
+    fn from(c: &Counters) -> Self {
+        CountersSummary {
+            ticks: c.ticks,
+            fixes_taken: c.fixes_taken,
+            fixes_rejected_geometry: c.fixes_rejected_geometry,
+            fixes_rejected_gate: c.fixes_rejected_gate,
+            relocalisations: c.relocalisations,
+            beams_mapped: c.beams_mapped,
+            beams_invalid: c.beams_invalid,
+            flow_stale: c.flow_stale,
+            gyro_stale: c.gyro_stale,
+            depth_stale: c.depth_stale,
+        }
+    }
+}
+
+/// The robot's sensor fault counters, as the summary prints them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct HealthSummary {
+    /// Depth scans late.
+    pub depth_timeouts: u32,
+    /// Depth sensor bus errors.
+    pub depth_bus_errors: u32,
+    /// Flow readings with no surface.
+    pub flow_no_surface: u32,
+    /// Flow readings dropped as outliers.
+    pub flow_outliers: u32,
+    /// Flow sensor bus errors.
+    pub flow_bus_errors: u32,
+    /// Gyro bus errors.
+    pub gyro_bus_errors: u32,
+    /// Bad camera link frames.
+    pub camera_bad_frames: u32,
+    /// Ticks that overran.
+    pub tick_overruns: u32,
+    /// Watchdog feeds.
+    pub watchdog_feeds: u32,
+}
+
+impl From<SensorHealth> for HealthSummary {
+    fn from(h: SensorHealth) -> Self {
+        HealthSummary {
+            depth_timeouts: h.depth_timeouts,
+            depth_bus_errors: h.depth_bus_errors,
+            flow_no_surface: h.flow_no_surface,
+            flow_outliers: h.flow_outliers,
+            flow_bus_errors: h.flow_bus_errors,
+            gyro_bus_errors: h.gyro_bus_errors,
+            camera_bad_frames: h.camera_bad_frames,
+            tick_overruns: h.tick_overruns,
+            watchdog_feeds: h.watchdog_feeds,
+        }
+    }
+}
+
+/// Frames the decoder dropped, by kind.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct BadFrames {
+    /// All of them.
+    pub total: u32,
+    /// No delimiter within the longest frame.
+    pub overlong: u32,
+    /// Stuffing that does not add up.
+    pub bad_cobs: u32,
+    /// Too short for a version byte and a CRC.
+    pub too_short: u32,
+    /// CRC mismatch.
+    pub bad_crc: u32,
+    /// Another layout's version byte.
+    pub bad_version: u32,
+    /// Good CRC, unreadable message.
+    pub bad_body: u32,
+}
+
+/// What a telemetry stream held: printed by `host-sim view`, as text or JSON.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Summary {
+    /// Ticks received.
+    pub ticks: usize,
+    /// Time of the last tick, seconds.
+    pub duration_s: f64,
+    /// Ticks with a tag fix taken.
+    pub fixes: usize,
+    /// Time of the first fix, seconds.
+    pub first_fix_s: Option<f64>,
+    /// The last tick's pose.
+    pub final_pose: Option<FinalPose>,
+    /// The last tick's counters.
+    pub counters: Option<CountersSummary>,
+    /// The latest sensor health.
+    pub health: Option<HealthSummary>,
+    /// The firmware's version, from the latest `Hello`.
+    pub firmware: Option<String>,
+    /// Grid columns and rows.
+    pub grid: Option<(u16, u16)>,
+    /// Cells believed free in the latest map.
+    pub free: usize,
+    /// Cells believed occupied in the latest map.
+    pub occupied: usize,
+    /// `Hello`s received.
+    pub hellos: u32,
+    /// Map chunks placed.
+    pub map_rows: u32,
+    /// Map chunks refused: before any `Hello`, or outside the grid.
+    pub map_rows_refused: u32,
+    /// Times the tick number went backwards (the robot reset).
+    pub restarts: u32,
+    /// Good frames.
+    pub frames_ok: u32,
+    /// Dropped frames.
+    pub bad_frames: BadFrames,
+}
+
+impl fmt::Display for Summary {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let fw = self.firmware.as_deref().unwrap_or("?");
+        let grid = self
+            .grid
+            .map_or("no Hello".to_string(), |(w, h)| format!("{w} x {h} grid"));
+        writeln!(
+            f,
+            "telemetry: firmware {fw}, {grid}: {} ticks, {:.1} s",
+            self.ticks, self.duration_s
+        )?;
+        match self.first_fix_s {
+            Some(t) => writeln!(f, "fixes taken {} (first at {t:.1} s)", self.fixes)?,
+            None => writeln!(f, "fixes taken 0")?,
+        }
+        if let Some(p) = self.final_pose {
+            writeln!(
+                f,
+                "final pose ({:.1}, {:.1}) mm, heading {:.1} deg",
+                f64::from(p.x_um) / 1000.0,
+                f64::from(p.y_um) / 1000.0,
+                p.heading_deg
+            )?;
+        }
+        writeln!(f, "map: free {}  occupied {}", self.free, self.occupied)?;
+        if let Some(c) = self.counters {
+            writeln!(
+                f,
+                "counters: fixes {} taken, {} geometry / {} gate rejected, {} relocalisations; beams {} mapped, {} invalid; stale flow {} gyro {} depth {}",
+                c.fixes_taken, c.fixes_rejected_geometry, c.fixes_rejected_gate, c.relocalisations,
+                c.beams_mapped, c.beams_invalid, c.flow_stale, c.gyro_stale, c.depth_stale
+            )?;
+        }
+        match self.health {
+            Some(h) => writeln!(
+                f,
+                "health: depth {} timeouts {} bus; flow {} no surface {} outliers {} bus; gyro {} bus; camera {} bad frames; {} overruns; {} watchdog feeds",
+                h.depth_timeouts, h.depth_bus_errors, h.flow_no_surface, h.flow_outliers,
+                h.flow_bus_errors, h.gyro_bus_errors, h.camera_bad_frames, h.tick_overruns,
+                h.watchdog_feeds
+            )?,
+            None => writeln!(f, "health: none received")?,
+        }
+        let b = &self.bad_frames;
+        write!(
+            f,
+            "frames: {} good, {} bad ({} overlong, {} COBS, {} short, {} CRC, {} version, {} body); map chunks {} placed, {} refused; {} restarts",
+            self.frames_ok, b.total, b.overlong, b.bad_cobs, b.too_short, b.bad_crc,
+            b.bad_version, b.bad_body, self.map_rows, self.map_rows_refused, self.restarts
+        )
+    }
+}
+
+/// A decoder and a recorder together: bytes in, a record out.
+#[derive(Clone, Debug, Default)]
+pub struct Recording {
+    /// Frame decoding and its counts.
+    pub decoder: StreamDecoder,
+    /// What the good frames said.
+    pub recorder: TelemetryRecorder,
+}
+
+impl Recording {
+    /// Nothing received yet.
+    pub fn new() -> Recording {
+        Recording::default()
+    }
+
+    /// Feeds received bytes.
+    pub fn feed(&mut self, bytes: &[u8]) {
+        for message in self.decoder.feed(bytes).flatten() {
+            self.recorder.push(&message);
+        }
+    }
+
+    /// The summary so far.
+    pub fn summary(&self) -> Summary {
+        self.recorder.summary(self.decoder.stats())
+    }
+
+    /// Reads `source` until end of file, `stop` is set, or `deadline` passes.
+    ///
+    /// Timeouts (a serial port with nothing to say) and interrupted reads are waited out;
+    /// any other error ends the reading and is returned after everything before it was
+    /// fed.
+    pub fn read_from(
+        &mut self,
+        source: &mut dyn Read,
+        stop: &AtomicBool,
+        deadline: Option<Instant>,
+    ) -> io::Result<()> {
+        let mut buf = [0u8; 4096];
+        loop {
+            if stop.load(Ordering::Relaxed) || deadline.is_some_and(|d| Instant::now() >= d) {
+                return Ok(());
+            }
+            match source.read(&mut buf) {
+                Ok(0) => return Ok(()),
+                Ok(n) => self.feed(buf.get(..n).unwrap_or(&[])),
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        io::ErrorKind::TimedOut
+                            | io::ErrorKind::Interrupted
+                            | io::ErrorKind::WouldBlock
+                    ) => {}
+                Err(e) => return Err(e),
+            }
+        }
+    }
+}
+
+/// Decodes a whole recorded stream.
+pub fn decode_bytes(bytes: &[u8]) -> Recording {
+    let mut r = Recording::new();
+    r.feed(bytes);
+    r
+}

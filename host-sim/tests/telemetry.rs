@@ -1,0 +1,251 @@
+//! The telemetry stream end to end: the simulator writes what the robot would send, the
+//! viewer reads it back and gets the run's own pose and map.
+
+use host_sim::run::{run, PoseMode};
+use host_sim::telemetry::decode_bytes;
+use host_sim::Scenario;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn seed_path() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/seed-mat.toml")
+}
+
+fn host_sim(args: &[&str]) -> Output {
+    match Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .args(args)
+        .output()
+    {
+        Ok(o) => o,
+        Err(e) => panic!("cannot start host-sim: {e}"),
+    }
+}
+
+/// A scratch directory unique to this test.
+fn scratch(name: &str) -> PathBuf {
+    let dir =
+        std::env::temp_dir().join(format!("host-sim-telemetry-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).ok();
+    dir
+}
+
+fn path_str(p: &Path) -> &str {
+    p.to_str().unwrap_or_default()
+}
+
+/// Runs the seed scenario with `--telemetry` and returns the stream's bytes.
+fn recorded_stream(dir: &Path) -> Vec<u8> {
+    let file = dir.join("seed.bin");
+    let out = host_sim(&[
+        "run",
+        path_str(&seed_path()),
+        "--pose",
+        "tags",
+        "--telemetry",
+        path_str(&file),
+        "--json",
+    ]);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    std::fs::read(&file).unwrap_or_default()
+}
+
+#[test]
+fn the_viewer_gets_the_run_back() {
+    let dir = scratch("roundtrip");
+    let bytes = recorded_stream(&dir);
+    assert!(!bytes.is_empty(), "no stream written");
+
+    // The same run in the library, for the figures to hold the stream to.
+    let scenario = Scenario::load(&seed_path()).expect("seed scenario loads");
+    let output = run(&scenario, PoseMode::Tags, scenario.seed).expect("seed runs");
+    let run_ticks = output.record.ticks.len();
+    let last = output.record.ticks.last().expect("ticks");
+
+    let recording = decode_bytes(&bytes);
+    let stats = *recording.decoder.stats();
+    assert_eq!(stats.bad_frames(), 0, "{stats:?}");
+    assert!(!recording.decoder.has_partial_frame());
+    let recorder = &recording.recorder;
+    assert_eq!(recorder.tick_count(), run_ticks);
+
+    let tick = recorder.last_tick().expect("a tick");
+    assert!((f64::from(tick.x_um) - last.estimate_mm.0 * 1000.0).abs() <= 1.0);
+    assert!((f64::from(tick.y_um) - last.estimate_mm.1 * 1000.0).abs() <= 1.0);
+    let heading = f64::from(tick.pose().heading.to_microdegrees()) / 1e6;
+    assert!((heading - last.estimate_heading_deg).abs() < 1e-6);
+
+    // The map rebuilt from MapRows is the run's final map, belief for belief.
+    let record = recorder.record("seed");
+    assert_eq!(
+        (record.map.width, record.map.height),
+        (output.record.map.width, output.record.map.height)
+    );
+    assert_eq!(record.map.cells, output.record.map.cells);
+    assert_eq!(record.map.cell_mm, output.record.map.cell_mm);
+    assert_eq!(record.map.origin_x_mm, output.record.map.origin_x_mm);
+
+    // Fix markers and the known share tick by tick: the share lags the robot's by at most
+    // one map sweep, and ends equal.
+    let fixes = |r: &host_sim::RunRecord| r.ticks.iter().filter(|t| t.fix_taken).count();
+    assert_eq!(fixes(&record), fixes(&output.record));
+    assert!(record.ticks.iter().all(|t| t.truth_mm.0.is_nan()));
+    let summary = recording.summary();
+    assert_eq!(summary.fixes as u32, output.figures.fixes);
+    assert_eq!(
+        summary.counters.map(|c| c.fixes_taken),
+        Some(output.figures.fixes)
+    );
+    assert!(summary.health.is_some());
+
+    // The command line agrees and draws both pictures.
+    let pictures = dir.join("pictures");
+    let file = dir.join("seed.bin");
+    let out = host_sim(&[
+        "view",
+        path_str(&file),
+        "--out",
+        path_str(&pictures),
+        "--json",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    assert!(!err.contains("panicked"));
+    let json: serde_json::Value =
+        serde_json::from_slice(&out.stdout).unwrap_or(serde_json::Value::Null);
+    assert_eq!(json["ticks"].as_u64(), Some(run_ticks as u64), "{json}");
+    assert_eq!(json["bad_frames"]["total"].as_u64(), Some(0), "{json}");
+    for name in ["seed-map.png", "seed-chart.png"] {
+        let len = std::fs::metadata(pictures.join(name)).map_or(0, |m| m.len());
+        assert!(len > 1000, "{name}: {len} bytes");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn garbage_in_the_stream_costs_only_its_own_frames() {
+    let dir = scratch("garbage");
+    let bytes = recorded_stream(&dir);
+    let clean = decode_bytes(&bytes);
+    let clean_frames = clean.decoder.stats().frames_ok;
+
+    // Split into frames, then: noise between every 50th pair, and every 100th frame
+    // with a flipped bit (each costs exactly that frame).
+    let frames: Vec<&[u8]> = bytes.split_inclusive(|&b| b == 0).collect();
+    assert_eq!(frames.len() as u32, clean_frames);
+    let mut dirty = Vec::new();
+    let (mut noisy, mut flipped) = (0u32, 0u32);
+    for (i, frame) in frames.iter().enumerate() {
+        if i % 100 == 7 && frame.len() > 4 {
+            let mut f = frame.to_vec();
+            f[2] ^= 0x10;
+            if f[2] == 0 {
+                f[2] = 0x55;
+            }
+            dirty.extend(f);
+            flipped += 1;
+        } else {
+            dirty.extend_from_slice(frame);
+        }
+        if i % 50 == 3 {
+            // Noise ending in a delimiter: one bad frame, the next frame untouched.
+            dirty.extend([0x13, 0x37, 0xFF, 0xB1, 0x02, 0x00]);
+            noisy += 1;
+        }
+    }
+    let recording = decode_bytes(&dirty);
+    let stats = *recording.decoder.stats();
+    assert_eq!(stats.frames_ok, clean_frames - flipped, "{stats:?}");
+    assert_eq!(stats.bad_frames(), flipped + noisy, "{stats:?}");
+
+    // The CLI reads it too, reports the bad frames and still draws.
+    let file = dir.join("dirty.bin");
+    std::fs::write(&file, &dirty).ok();
+    let out = host_sim(&["view", path_str(&file), "--out", path_str(&dir)]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(text.contains(&format!("{} bad", flipped + noisy)), "{text}");
+    assert!(dir.join("dirty-map.png").is_file());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_input_is_refused_cleanly() {
+    let dir = scratch("bad");
+    let junk = dir.join("junk.bin");
+    let noise: Vec<u8> = (0..20_000u32)
+        .map(|i| (i.wrapping_mul(2_654_435_761) >> 13) as u8)
+        .collect();
+    std::fs::write(&junk, noise).ok();
+    let empty = dir.join("empty.bin");
+    std::fs::write(&empty, b"").ok();
+    let missing = dir.join("missing.bin");
+    for (args, what) in [
+        (vec!["view", path_str(&junk)], "no telemetry frames"),
+        (vec!["view", path_str(&empty)], "no telemetry frames"),
+        (vec!["view", path_str(&missing)], "cannot read"),
+        (vec!["view"], "which stream"),
+        (vec!["view", path_str(&junk), "--baud", "fast"], "--baud"),
+        (
+            vec!["view", path_str(&junk), "--seconds", "-1"],
+            "--seconds",
+        ),
+        (
+            vec!["view", path_str(&junk), "--frobnicate"],
+            "unknown option",
+        ),
+        (vec!["view", "/dev/no-such-tty"], "serial port"),
+    ] {
+        let out = host_sim(&args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(what), "{args:?}: {err}");
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_late_viewer_waits_for_hello_and_refuses_chunks_off_the_grid() {
+    use host_sim::telemetry::TelemetryRecorder;
+    use slam_core::telemetry::{CellChunk, FirmwareVersion, Hello, MapRows, Message};
+    let rows = |first_row, first_column, n: usize| {
+        Message::MapRows(MapRows {
+            first_row,
+            first_column,
+            cells: CellChunk::from_slice(&vec![100i8; n]).unwrap_or_default(),
+        })
+    };
+    let mut r = TelemetryRecorder::new();
+    r.push(&rows(0, 0, 8)); // before any Hello: nowhere to put it
+    assert!(r.beliefs().is_empty());
+    r.push(&Message::Hello(Hello {
+        width: 4,
+        height: 3,
+        cell_mm: 50,
+        origin_x_mm: 0,
+        origin_y_mm: 0,
+        free_below: 16,
+        occupied_above: 16,
+        firmware: FirmwareVersion::default(),
+    }));
+    r.push(&rows(1, 0, 8)); // rows 1 and 2: fits exactly
+    r.push(&rows(2, 0, 5)); // one cell past the end
+    r.push(&rows(0, 4, 1)); // column past the width
+    r.push(&rows(u16::MAX, u16::MAX, 128));
+    let summary = r.summary(&Default::default());
+    assert_eq!((summary.map_rows, summary.map_rows_refused), (1, 4));
+    assert_eq!((summary.occupied, summary.free), (8, 0));
+    let record = r.record("late");
+    assert_eq!(record.map.cells.len(), 12);
+    assert!(record.ticks.is_empty());
+}
