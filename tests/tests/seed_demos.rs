@@ -173,5 +173,9 @@ fn the_firmware_and_the_scenario_agree_on_the_world() {
         heading_deg: scenario.start.heading_deg,
     });
     assert_eq!(start, slam_core::SlamConfig::SEED_START);
-    assert_eq!(host_sim::run::slam_config(&scenario), config, "scenario and SlamConfig::seed_mat differ");
+    assert_eq!(
+        host_sim::run::slam_config(&scenario),
+        config,
+        "scenario and SlamConfig::seed_mat differ"
+    );
 }
