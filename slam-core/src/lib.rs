@@ -13,6 +13,7 @@
 
 pub mod angle;
 pub mod frame;
+pub mod framing;
 pub mod grid;
 pub mod odometry;
 pub mod pose;

@@ -57,6 +57,7 @@
 //!
 //! [postcard 1.x]: https://postcard.jamesmunns.com/wire-format
 
+use crate::framing::{cobs_decode_in_place, cobs_encode, cobs_len};
 use crate::grid::{Evidence, GridMap, LogOdds, Occupancy};
 use crate::pose::Pose;
 use crate::slam::{Counters, Staleness, StepReport};
@@ -652,103 +653,13 @@ pub fn encode(message: &Message, out: &mut [u8]) -> Result<usize, EncodeError> {
     if out.len() < needed {
         return Err(EncodeError::BufferTooSmall { needed });
     }
-    let n = cobs_encode(raw, out).ok_or(EncodeError::BufferTooSmall { needed })?;
+    let n = cobs_encode(raw, out).map_err(|_| EncodeError::BufferTooSmall { needed })?;
     *out.get_mut(n)
         .ok_or(EncodeError::BufferTooSmall { needed })? = 0;
     Ok(n + 1)
 }
 
-/// CRC-16/CCITT-FALSE: polynomial `0x1021`, initial `0xFFFF`, MSB first, no final XOR.
-///
-/// Bit by bit rather than by table: a frame is under 150 bytes and the M0+'s flash is
-/// better spent elsewhere.
-pub fn crc16(bytes: &[u8]) -> u16 {
-    let mut crc: u16 = 0xFFFF;
-    for &b in bytes {
-        crc ^= (b as u16) << 8;
-        for _ in 0..8 {
-            crc = if crc & 0x8000 != 0 {
-                (crc << 1) ^ 0x1021
-            } else {
-                crc << 1
-            };
-        }
-    }
-    crc
-}
-
-/// Length of `raw` after COBS stuffing, without the delimiter.
-fn cobs_len(raw: &[u8]) -> usize {
-    let mut len = 1;
-    let mut run = 0;
-    for &b in raw {
-        if b == 0 {
-            len += 1;
-            run = 0;
-        } else {
-            len += 1;
-            run += 1;
-            if run == 254 {
-                len += 1;
-                run = 0;
-            }
-        }
-    }
-    len
-}
-
-/// COBS-stuffs `raw` into `out`, returning the stuffed length, or `None` if `out` is short.
-fn cobs_encode(raw: &[u8], out: &mut [u8]) -> Option<usize> {
-    let mut code_at = 0;
-    let mut write = 1;
-    let mut code: u8 = 1;
-    for &b in raw {
-        if b == 0 {
-            *out.get_mut(code_at)? = code;
-            code_at = write;
-            write += 1;
-            code = 1;
-        } else {
-            *out.get_mut(write)? = b;
-            write += 1;
-            code += 1;
-            if code == 0xFF {
-                *out.get_mut(code_at)? = code;
-                code_at = write;
-                write += 1;
-                code = 1;
-            }
-        }
-    }
-    *out.get_mut(code_at)? = code;
-    Some(write)
-}
-
-/// Un-stuffs a COBS frame (without its delimiter) in place; `None` if the codes do not
-/// add up.
-fn cobs_decode_in_place(buf: &mut [u8]) -> Option<usize> {
-    let len = buf.len();
-    let (mut read, mut write) = (0, 0);
-    while read < len {
-        let code = *buf.get(read)? as usize;
-        if code == 0 {
-            return None;
-        }
-        read += 1;
-        let end = read + code - 1;
-        if end > len {
-            return None;
-        }
-        buf.copy_within(read..end, write);
-        write += end - read;
-        read = end;
-        if code != 0xFF && read < len {
-            *buf.get_mut(write)? = 0;
-            write += 1;
-        }
-    }
-    Some(write)
-}
+pub use crate::framing::crc16;
 
 /// Why a received frame was dropped.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -898,7 +809,7 @@ impl StreamDecoder {
     }
 
     fn parse(encoded: &mut [u8]) -> Result<Message, FrameError> {
-        let n = cobs_decode_in_place(encoded).ok_or(FrameError::Cobs)?;
+        let n = cobs_decode_in_place(encoded).map_err(|_| FrameError::Cobs)?;
         let raw = encoded.get(..n).ok_or(FrameError::Cobs)?;
         if raw.len() < 3 {
             return Err(FrameError::TooShort);

@@ -30,15 +30,15 @@
 //! - [`FrameDecoder`]: a fixed-buffer stream decoder fed UART bytes.
 
 pub mod cobs;
-mod crc;
 mod decoder;
 mod packet;
 mod repr;
 
-pub use crc::crc16_ccitt_false;
 pub use decoder::{DecoderStats, FrameDecoder, Frames};
 pub use packet::Packet;
 pub use repr::{encode_frame, FrameRepr, TagDetection};
+/// CRC-16/CCITT-FALSE over the frame body (the shared framing's CRC).
+pub use slam_core::framing::crc16 as crc16_ccitt_false;
 
 /// The only frame version this crate understands.
 pub const VERSION: u8 = 1;
