@@ -289,8 +289,8 @@ impl TelemetryRecorder {
                     heading_deg: f64::from(p.heading.to_microdegrees()) / 1e6,
                 }
             }),
-            counters: self.last_tick.map(|t| CountersSummary::from(&t.counters)),
-            health: self.health.map(HealthSummary::from),
+            counters: self.last_tick.map(|t| t.counters),
+            health: self.health,
             firmware: self.hello.map(|h| {
                 format!(
                     "{}.{}.{}",
@@ -329,87 +329,6 @@ pub struct FinalPose {
     pub heading_deg: f64,
 }
 
-/// The core's counters, as the summary prints them.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-pub struct CountersSummary {
-    /// Steps run.
-    pub ticks: u32,
-    /// Tag fixes taken.
-    pub fixes_taken: u32,
-    /// Fixes refused for their geometry.
-    pub fixes_rejected_geometry: u32,
-    /// Fixes refused by the gate.
-    pub fixes_rejected_gate: u32,
-    /// Fixes taken against the gate.
-    pub relocalisations: u32,
-    /// Beams mapped.
-    pub beams_mapped: u32,
-    /// Beams with no return.
-    pub beams_invalid: u32,
-    /// Ticks without flow.
-    pub flow_stale: u32,
-    /// Ticks without gyro.
-    pub gyro_stale: u32,
-    /// Ticks without depth.
-    pub depth_stale: u32,
-}
-
-impl From<&Counters> for CountersSummary {
-    fn from(c: &Counters) -> Self {
-        CountersSummary {
-            ticks: c.ticks,
-            fixes_taken: c.fixes_taken,
-            fixes_rejected_geometry: c.fixes_rejected_geometry,
-            fixes_rejected_gate: c.fixes_rejected_gate,
-            relocalisations: c.relocalisations,
-            beams_mapped: c.beams_mapped,
-            beams_invalid: c.beams_invalid,
-            flow_stale: c.flow_stale,
-            gyro_stale: c.gyro_stale,
-            depth_stale: c.depth_stale,
-        }
-    }
-}
-
-/// The robot's sensor fault counters, as the summary prints them.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-pub struct HealthSummary {
-    /// Depth scans late.
-    pub depth_timeouts: u32,
-    /// Depth sensor bus errors.
-    pub depth_bus_errors: u32,
-    /// Flow readings with no surface.
-    pub flow_no_surface: u32,
-    /// Flow readings dropped as outliers.
-    pub flow_outliers: u32,
-    /// Flow sensor bus errors.
-    pub flow_bus_errors: u32,
-    /// Gyro bus errors.
-    pub gyro_bus_errors: u32,
-    /// Bad camera link frames.
-    pub camera_bad_frames: u32,
-    /// Ticks that overran.
-    pub tick_overruns: u32,
-    /// Watchdog feeds.
-    pub watchdog_feeds: u32,
-}
-
-impl From<SensorHealth> for HealthSummary {
-    fn from(h: SensorHealth) -> Self {
-        HealthSummary {
-            depth_timeouts: h.depth_timeouts,
-            depth_bus_errors: h.depth_bus_errors,
-            flow_no_surface: h.flow_no_surface,
-            flow_outliers: h.flow_outliers,
-            flow_bus_errors: h.flow_bus_errors,
-            gyro_bus_errors: h.gyro_bus_errors,
-            camera_bad_frames: h.camera_bad_frames,
-            tick_overruns: h.tick_overruns,
-            watchdog_feeds: h.watchdog_feeds,
-        }
-    }
-}
-
 /// Frames the decoder dropped, by kind.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 pub struct BadFrames {
@@ -443,9 +362,9 @@ pub struct Summary {
     /// The last tick's pose.
     pub final_pose: Option<FinalPose>,
     /// The last tick's counters.
-    pub counters: Option<CountersSummary>,
+    pub counters: Option<Counters>,
     /// The latest sensor health.
-    pub health: Option<HealthSummary>,
+    pub health: Option<SensorHealth>,
     /// The firmware's version, from the latest `Hello`.
     pub firmware: Option<String>,
     /// Grid columns and rows.

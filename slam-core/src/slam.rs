@@ -129,7 +129,10 @@ impl SlamConfig {
 }
 
 /// Running totals since start, for telemetry and tests.
-#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+///
+/// The telemetry stream carries these field for field (postcard, in this order): adding a
+/// field changes the wire layout, so bump `telemetry::WIRE_VERSION` with it.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default, serde::Serialize, serde::Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Counters {
     /// Steps run.

@@ -61,7 +61,7 @@ use crate::framing::{cobs_decode_in_place, cobs_encode, cobs_len};
 use crate::grid::{Evidence, GridMap, LogOdds, Occupancy};
 use crate::pose::Pose;
 use crate::slam::{Counters, Staleness, StepReport};
-use crate::tagfix::{FixOutcome, FixRejection};
+use crate::tagfix::FixOutcome;
 use crate::Angle;
 use core::fmt;
 use serde::de::{self, SeqAccess, Visitor};
@@ -167,14 +167,12 @@ pub struct Tick {
     /// Heading as a binary angle: 2^32 per turn, clockwise from +y.
     pub heading_bits: u32,
     /// Whether a tag fix was taken, rejected or not tried.
-    #[serde(with = "FixOutcomeDef")]
     pub fix: FixOutcome,
     /// Inputs missing this tick: bit 0 flow, bit 1 gyro, bit 2 depth ([`Tick::staleness`]).
     pub stale: u8,
     /// Grid cells written this tick.
     pub cells_written: u32,
     /// The core's totals since start.
-    #[serde(with = "CountersDef")]
     pub counters: Counters,
 }
 
@@ -387,38 +385,6 @@ pub enum Message {
     MapRows(MapRows),
     /// Sensor fault counters (variant 3).
     Health(SensorHealth),
-}
-
-#[derive(Serialize, Deserialize)]
-#[serde(remote = "FixRejection")]
-enum FixRejectionDef {
-    Geometry,
-    Gate,
-}
-
-#[derive(Serialize, Deserialize)]
-#[serde(remote = "FixOutcome")]
-enum FixOutcomeDef {
-    NotAttempted,
-    Taken,
-    Rejected(#[serde(with = "FixRejectionDef")] FixRejection),
-}
-
-// The wire carries the core's counters field for field: a field added to `Counters` fails
-// to compile here, which is the moment to add it to the layout and bump `WIRE_VERSION`.
-#[derive(Serialize, Deserialize)]
-#[serde(remote = "Counters")]
-struct CountersDef {
-    ticks: u32,
-    fixes_taken: u32,
-    fixes_rejected_geometry: u32,
-    fixes_rejected_gate: u32,
-    relocalisations: u32,
-    beams_mapped: u32,
-    beams_invalid: u32,
-    flow_stale: u32,
-    gyro_stale: u32,
-    depth_stale: u32,
 }
 
 /// How a map cell is squeezed into one byte without changing what it means.
@@ -854,6 +820,7 @@ impl Iterator for Frames<'_, '_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::tagfix::FixRejection;
     use crate::grid::GridGeometry;
     use crate::SlamConfig;
     use proptest::prelude::*;
