@@ -147,7 +147,8 @@ impl Robot {
             let rate = command.turn_dps * (1.0 + g.scale_error)
                 + g.bias_dps
                 + noise(&mut self.rng.gyro, g.noise_dps);
-            self.gyro_sum_mdps += (rate * 1000.0).round() as i64;
+            self.last_gyro_mdps = (rate * 1000.0).round() as i32;
+            self.gyro_sum_mdps += self.last_gyro_mdps as i64;
             self.gyro_samples += 1;
 
             if self.substeps.is_multiple_of(FLOW_EVERY) {

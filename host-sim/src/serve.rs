@@ -184,12 +184,14 @@ mod tests {
             "{\"cmd\":\"tags\"}\n",
             "not json\n",
             "{\"cmd\":\"advance\",\"t_s\":1.0,\"left\":NaN,\"right\":0}\n",
+            "{\"cmd\":\"advance\",\"t_s\":2.0,\"left\":0.0916,\"right\":-0.0916}\n",
+            "{\"cmd\":\"gyro\"}\n",
         );
         let mut out = Vec::new();
         assert!(serve(&s, 1, input.as_bytes(), &mut out).is_ok());
         let lines: Vec<serde_json::Value> =
             String::from_utf8_lossy(&out).lines().map(json).collect();
-        assert_eq!(lines.len(), 7);
+        assert_eq!(lines.len(), 9);
         assert!(
             (lines[0]["y_mm"].as_f64().unwrap_or(0.0) - 650.0).abs() < 1.0,
             "{}",
@@ -203,5 +205,18 @@ mod tests {
         assert!(lines[4]["tags"].is_array());
         assert!(lines[5]["error"].is_string());
         assert!(lines[6]["error"].is_string());
+        // Turning clockwise at about 31.5 deg/s: the gyro reads it, with its 0.75 % scale
+        // error, 0.02 deg/s bias and 0.1 deg/s noise.
+        let rate = lines[8]["rate_mdps"].as_i64().unwrap_or(0);
+        assert!(
+            (rate - 31_800).abs() < 600,
+            "gyro reads {rate} mdps while turning"
+        );
+        assert_eq!(
+            lines[2]["rate_mdps"].as_i64().map(|r| r.abs() < 600),
+            Some(true),
+            "{}",
+            lines[2]
+        );
     }
 }

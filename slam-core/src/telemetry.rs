@@ -820,8 +820,8 @@ impl Iterator for Frames<'_, '_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::tagfix::FixRejection;
     use crate::grid::GridGeometry;
+    use crate::tagfix::FixRejection;
     use crate::SlamConfig;
     use proptest::prelude::*;
     use std::vec::Vec;

@@ -2,6 +2,7 @@
 
 use std::process::{Command, ExitCode};
 
+mod emulate;
 mod firmware;
 
 fn main() -> ExitCode {
@@ -9,6 +10,7 @@ fn main() -> ExitCode {
     let result = match args.first().map(String::as_str) {
         Some("test") => test(&args[1..]),
         Some("firmware") => firmware::run(&args[1..]),
+        Some("emulate") => emulate::run(&args[1..]),
         Some("bench") => bench(&args[1..]),
         _ => {
             eprintln!("usage: cargo xtask <test|firmware|bench> [args]");

@@ -1,0 +1,299 @@
+//! `cargo xtask emulate`: the real firmware in the `rp2040js` emulator, living in the
+//! simulator's world.
+//!
+//! Steps: install the harness's npm dependencies from its lock file if they are missing,
+//! build the firmware (`cargo xtask firmware`), build `host-sim`, run
+//! `tests/emulator/harness.mjs` (which starts `host-sim serve` itself and talks to it over
+//! two FIFOs, so the world is read at exactly the simulated instant the firmware asks),
+//! then decode the captured telemetry with `host-sim view`, which prints the figures and
+//! draws the pictures into `out/emulator/`.
+
+use std::os::fd::AsFd;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+
+use crate::{run_cmd, workspace_root};
+
+const USAGE: &str = "usage: cargo xtask emulate [SCENARIO] [--seconds N] [--seed N] [--pose MODE] \
+[--fault NAME@T+S]... [--no-world] [--max-wall S] [--json]
+  SCENARIO    host-sim scenario file (default host-sim/scenarios/seed-mat.toml)
+  --seconds   simulated seconds to run (default 60)
+  --pose      accepted for symmetry with `host-sim run`; the firmware chooses its own
+              pose source, so this only labels the output directory
+  --fault     depth-nack, camera-garbage, flow-no-surface or gyro-nack from S seconds on
+  --no-world  run without host-sim: the robot stands still on a good surface
+  --json      print one JSON object: {\"emulator\": ..., \"view\": ...}";
+
+struct Args {
+    scenario: PathBuf,
+    seconds: String,
+    seed: String,
+    pose: Option<String>,
+    faults: Vec<String>,
+    no_world: bool,
+    max_wall: Option<String>,
+    json: bool,
+}
+
+fn parse(args: &[String]) -> Result<Args, String> {
+    let mut parsed = Args {
+        scenario: workspace_root().join("host-sim/scenarios/seed-mat.toml"),
+        seconds: "60".into(),
+        seed: "1".into(),
+        pose: None,
+        faults: Vec::new(),
+        no_world: false,
+        max_wall: None,
+        json: false,
+    };
+    let mut scenario_given = false;
+    let mut it = args.iter();
+    while let Some(arg) = it.next() {
+        let mut value = |name: &str| {
+            it.next()
+                .cloned()
+                .ok_or_else(|| format!("{name} needs a value\n{USAGE}"))
+        };
+        match arg.as_str() {
+            "--seconds" => parsed.seconds = number(&value("--seconds")?)?,
+            "--seed" => parsed.seed = number(&value("--seed")?)?,
+            "--pose" => parsed.pose = Some(value("--pose")?),
+            "--fault" => parsed.faults.push(value("--fault")?),
+            "--max-wall" => parsed.max_wall = Some(number(&value("--max-wall")?)?),
+            "--no-world" => parsed.no_world = true,
+            "--json" => parsed.json = true,
+            "-h" | "--help" => return Err(USAGE.into()),
+            flag if flag.starts_with("--") => {
+                return Err(format!("unknown option {flag}\n{USAGE}"))
+            }
+            path if !scenario_given => {
+                parsed.scenario = PathBuf::from(path);
+                scenario_given = true;
+            }
+            extra => return Err(format!("unexpected argument {extra}\n{USAGE}")),
+        }
+    }
+    Ok(parsed)
+}
+
+/// A positive number, kept as text for the harness's command line.
+fn number(text: &str) -> Result<String, String> {
+    match text.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(text.to_string()),
+        _ => Err(format!("expected a positive number, got {text:?}")),
+    }
+}
+
+/// Entry point from `main.rs`.
+pub fn run(args: &[String]) -> Result<(), String> {
+    let args = parse(args)?;
+    let root = workspace_root();
+    let harness_dir = root.join("tests/emulator");
+    let out_dir = match &args.pose {
+        Some(pose) => root.join("out/emulator").join(pose),
+        None => root.join("out/emulator"),
+    };
+    std::fs::create_dir_all(&out_dir)
+        .map_err(|e| format!("cannot create {}: {e}", out_dir.display()))?;
+
+    if !harness_dir.join("node_modules/rp2040js").is_dir() {
+        run_in(&harness_dir, Command::new("npm").arg("ci"))?;
+    }
+
+    let release = root.join("firmware/target/thumbv6m-none-eabi/release");
+    let elf = release.join("bugbot-firmware");
+    let bin = release.join("bugbot-firmware.bin");
+    // With --json, stdout must hold one JSON object; `firmware::run` prints its size
+    // table there, so it runs as `xtask firmware` in a child with stdout sent to stderr.
+    let built = if args.json {
+        firmware_quietly()
+    } else {
+        crate::firmware::run(&[])
+    };
+    if let Err(e) = built {
+        // The budget check fails after a good build; the image is still worth running.
+        if elf.is_file() && bin.is_file() {
+            eprintln!("xtask emulate: warning: {e}; emulating the image that was built");
+        } else {
+            return Err(e);
+        }
+    }
+
+    let host_sim = root.join("target/release/host-sim");
+    run_cmd(Command::new(cargo()).args(["build", "--release", "-p", "host-sim"]))?;
+
+    let telemetry = out_dir.join("telemetry.bin");
+    let defmt = out_dir.join("defmt.raw");
+    let mut harness = Command::new("node");
+    harness
+        .arg(harness_dir.join("harness.mjs"))
+        .arg("--elf")
+        .arg(&elf)
+        .arg("--bin")
+        .arg(&bin)
+        .arg("--scenario")
+        .arg(&args.scenario)
+        .args(["--seconds", &args.seconds, "--seed", &args.seed])
+        .arg("--telemetry")
+        .arg(&telemetry)
+        .arg("--defmt")
+        .arg(&defmt)
+        .arg("--json");
+    if args.no_world {
+        harness.arg("--no-world");
+    } else {
+        harness.arg("--host-sim").arg(&host_sim);
+    }
+    if let Some(s) = &args.max_wall {
+        harness.args(["--max-wall", s]);
+    }
+    for f in &args.faults {
+        harness.args(["--fault", f]);
+    }
+    let emulator_json = capture(&root, &mut harness)?;
+
+    let mut view = Command::new(&host_sim);
+    view.arg("view").arg(&telemetry).arg("--out").arg(&out_dir);
+    if args.json {
+        view.arg("--json");
+    }
+    // The decoder is being written alongside; a failing view must not hide the
+    // emulator's own figures.
+    let view_out = capture(&root, &mut view);
+
+    if args.json {
+        let view_json = match &view_out {
+            Ok(text) if text.trim_start().starts_with('{') => text.trim().to_string(),
+            Ok(text) => json_string(text.trim()),
+            Err(e) => format!("{{\"error\":{}}}", json_string(e)),
+        };
+        println!(
+            "{{\"emulator\":{},\"view\":{},\"out_dir\":{}}}",
+            emulator_json.trim(),
+            view_json,
+            json_string(&out_dir.display().to_string())
+        );
+    } else {
+        println!("emulator: {}", emulator_json.trim());
+        match view_out {
+            Ok(text) => println!("{}", text.trim_end()),
+            Err(e) => eprintln!("xtask emulate: host-sim view failed: {e}"),
+        }
+        println!("pictures and raw streams in {}", out_dir.display());
+    }
+    Ok(())
+}
+
+/// `cargo xtask firmware` (this very binary), its stdout redirected to stderr.
+fn firmware_quietly() -> Result<(), String> {
+    let exe = std::env::current_exe().map_err(|e| format!("cannot find xtask itself: {e}"))?;
+    let stderr = std::io::stderr()
+        .as_fd()
+        .try_clone_to_owned()
+        .map_err(|e| format!("cannot duplicate stderr: {e}"))?;
+    run_in(
+        &workspace_root(),
+        Command::new(exe)
+            .arg("firmware")
+            .stdout(Stdio::from(stderr)),
+    )
+}
+
+fn cargo() -> String {
+    std::env::var("CARGO").unwrap_or_else(|_| "cargo".into())
+}
+
+/// Runs `cmd` from `dir`, stderr passed through, and returns its stdout.
+fn capture(dir: &Path, cmd: &mut Command) -> Result<String, String> {
+    eprintln!("+ {:?}", cmd);
+    let output = cmd
+        .current_dir(dir)
+        .stderr(Stdio::inherit())
+        .output()
+        .map_err(|e| format!("cannot start {:?}: {e}", cmd.get_program()))?;
+    let stdout = String::from_utf8_lossy(&output.stdout).into_owned();
+    if output.status.success() {
+        Ok(stdout)
+    } else {
+        Err(format!(
+            "{:?} failed: {}{}",
+            cmd.get_program(),
+            output.status,
+            if stdout.is_empty() {
+                String::new()
+            } else {
+                format!("\n{stdout}")
+            }
+        ))
+    }
+}
+
+fn run_in(dir: &Path, cmd: &mut Command) -> Result<(), String> {
+    eprintln!("+ (cd {}) {:?}", dir.display(), cmd);
+    let status = cmd
+        .current_dir(dir)
+        .status()
+        .map_err(|e| format!("cannot start {:?}: {e}", cmd.get_program()))?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!("{:?} failed: {status}", cmd.get_program()))
+    }
+}
+
+/// `text` as a JSON string literal.
+fn json_string(text: &str) -> String {
+    let mut out = String::with_capacity(text.len() + 2);
+    out.push('"');
+    for c in text.chars() {
+        match c {
+            '"' => out.push_str("\\\""),
+            '\\' => out.push_str("\\\\"),
+            '\n' => out.push_str("\\n"),
+            '\r' => out.push_str("\\r"),
+            '\t' => out.push_str("\\t"),
+            c if (c as u32) < 0x20 => out.push_str(&format!("\\u{:04x}", c as u32)),
+            c => out.push(c),
+        }
+    }
+    out.push('"');
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn strings(v: &[&str]) -> Vec<String> {
+        v.iter().map(|s| s.to_string()).collect()
+    }
+
+    #[test]
+    fn parses_scenario_and_options() {
+        let a = parse(&strings(&[
+            "s.toml",
+            "--seconds",
+            "5",
+            "--fault",
+            "depth-nack@T+3",
+            "--json",
+        ]))
+        .unwrap();
+        assert_eq!(a.scenario, PathBuf::from("s.toml"));
+        assert_eq!(a.seconds, "5");
+        assert_eq!(a.faults, vec!["depth-nack@T+3".to_string()]);
+        assert!(a.json);
+    }
+
+    #[test]
+    fn rejects_bad_numbers_and_extra_arguments() {
+        assert!(parse(&strings(&["--seconds", "-1"])).is_err());
+        assert!(parse(&strings(&["a.toml", "b.toml"])).is_err());
+        assert!(parse(&strings(&["--bogus"])).is_err());
+    }
+
+    #[test]
+    fn json_strings_are_escaped() {
+        assert_eq!(json_string("a\"b\\c\n"), "\"a\\\"b\\\\c\\n\"");
+    }
+}
