@@ -6,9 +6,9 @@
 //! pin list does not type-check in the task that builds the bus).
 
 use embassy_rp::peripherals::{
-    DMA_CH0, DMA_CH1, I2C0, I2C1, PIN_0, PIN_1, PIN_10, PIN_11, PIN_12, PIN_13, PIN_16, PIN_17,
-    PIN_18, PIN_19, PIN_2, PIN_25, PIN_3, PIN_4, PIN_5, PIN_6, PIN_7, PIN_8, PIN_9, PWM_SLICE5,
-    PWM_SLICE6, SPI0, UART0, UART1, WATCHDOG,
+    CORE1, DMA_CH0, DMA_CH1, DMA_CH2, I2C0, I2C1, PIN_0, PIN_1, PIN_10, PIN_11, PIN_12, PIN_13,
+    PIN_16, PIN_17, PIN_18, PIN_19, PIN_2, PIN_25, PIN_3, PIN_4, PIN_5, PIN_6, PIN_7, PIN_8,
+    PWM_SLICE5, PWM_SLICE6, SPI0, UART0, UART1, WATCHDOG,
 };
 use embassy_rp::{Peri, Peripherals};
 
@@ -25,8 +25,8 @@ pub const FLOW_SPI_HZ: u32 = 2_000_000;
 /// Camera co-processor link speed, in baud (8N1).
 pub const CAMERA_BAUD: u32 = 115_200;
 
-/// Telemetry link speed, in baud (8N1), until USB CDC replaces the UART.
-pub const TELEMETRY_BAUD: u32 = 115_200;
+/// Telemetry link speed, in baud (8N1): 92 KB/s, over ten times the stream's worst case.
+pub const TELEMETRY_BAUD: u32 = 921_600;
 
 /// Motor PWM counter wrap: 125 MHz / (6249 + 1) = 20 kHz, above hearing and within the
 /// DRV8833's 50 kHz limit. Duty is `compare / (TOP + 1)`.
@@ -42,6 +42,8 @@ pub struct DepthSensorPins {
     pub scl: Peri<'static, PIN_5>,
     /// GP6: the sensor's LPn (low power, active low): high enables its I2C interface.
     pub lpn: Peri<'static, PIN_6>,
+    /// The second core: ST's driver is blocking, so it runs there (feature `vl53l5cx`).
+    pub core1: Peri<'static, CORE1>,
 }
 
 /// ICM-42688-P IMU (its gyro gives the yaw rate) on I2C1.
@@ -84,14 +86,15 @@ pub struct CameraLinkPins {
     pub rx: Peri<'static, PIN_1>,
 }
 
-/// Telemetry link on UART1 at [`TELEMETRY_BAUD`]: a stand-in until USB CDC.
+/// Telemetry link on UART1 at [`TELEMETRY_BAUD`], transmit only, written by DMA.
+/// GP9 (UART1 RX) is left unclaimed until the host has commands to send.
 pub struct TelemetryLinkPins {
     /// The UART1 block.
     pub uart: Peri<'static, UART1>,
     /// GP8: UART1 TX, robot to host.
     pub tx: Peri<'static, PIN_8>,
-    /// GP9: UART1 RX, host to robot (commands, later).
-    pub rx: Peri<'static, PIN_9>,
+    /// DMA channel 2: UART1 transmit.
+    pub tx_dma: Peri<'static, DMA_CH2>,
 }
 
 /// DRV8833 dual H-bridge, driven by two PWM slices (one per motor, inputs IN1/IN2 on the
@@ -121,7 +124,7 @@ pub struct Board {
     pub flow: FlowSensorPins,
     /// Camera co-processor: UART0 on GP0/GP1.
     pub camera: CameraLinkPins,
-    /// Telemetry: UART1 on GP8/GP9.
+    /// Telemetry: UART1 TX on GP8, DMA channel 2.
     pub telemetry: TelemetryLinkPins,
     /// DRV8833 motor driver: PWM5 on GP10/GP11, PWM6 on GP12/GP13.
     pub motors: MotorPins,
@@ -140,6 +143,7 @@ impl Board {
                 sda: p.PIN_4,
                 scl: p.PIN_5,
                 lpn: p.PIN_6,
+                core1: p.CORE1,
             },
             imu: ImuPins {
                 i2c: p.I2C1,
@@ -164,7 +168,7 @@ impl Board {
             telemetry: TelemetryLinkPins {
                 uart: p.UART1,
                 tx: p.PIN_8,
-                rx: p.PIN_9,
+                tx_dma: p.DMA_CH2,
             },
             motors: MotorPins {
                 left_slice: p.PWM_SLICE5,

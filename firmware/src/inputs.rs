@@ -12,8 +12,12 @@
 //!   so a scan is mapped once and a tick with no new scan sees `None`.
 //!
 //! In every case "nothing since the last tick" comes out as `None`, which is exactly what
-//! [`slam_core::SensorFrame`] calls stale. Until the drivers are wired, no task writes
-//! here, so every input is stale on every tick and the core counts it.
+//! [`slam_core::SensorFrame`] calls stale, and the core counts it. Flow is also stale when
+//! any read in the tick failed ([`FlowInbox::poison`]): a sum missing a read is wrong. A
+//! lost gyro sample does not poison the tick: the mean of the others is still the mean.
+//!
+//! Besides the tick's inputs, the gyro's own integral ([`YawIntegrator`]) and a
+//! "calibrated" signal go to the motion task.
 //!
 //! All four use `CriticalSectionRawMutex` so that a driver may later publish from an
 //! interrupt executor or the second core without changing this file.
@@ -25,34 +29,64 @@ use embassy_sync::blocking_mutex::Mutex;
 use embassy_sync::signal::Signal;
 use slam_core::{DepthScan, FlowDelta, GyroRate, TagDetections};
 
+/// Flow since the tick last looked: the sum of good reads, and whether a read failed.
+#[derive(Clone, Copy, Default)]
+struct FlowSum {
+    /// Sum of the good reads, or `None` if none arrived.
+    sum: Option<FlowDelta>,
+    /// A read failed (bus error, timeout, no surface, outlier) since the tick last looked.
+    poisoned: bool,
+}
+
 /// Optical flow summed since the SLAM tick last took it.
-pub struct FlowInbox(Mutex<CriticalSectionRawMutex, Cell<Option<FlowDelta>>>);
+///
+/// A failed read *poisons* the tick: its motion is lost, so the sum of the other reads
+/// would understate the tick's travel. The whole tick's flow is then stale, which the core
+/// counts (`flow_stale`) and which matches the simulator's model (a tick with a bad
+/// surface has no flow at all).
+pub struct FlowInbox(Mutex<CriticalSectionRawMutex, Cell<FlowSum>>);
 
 impl FlowInbox {
     /// An empty inbox.
     pub const fn new() -> Self {
-        FlowInbox(Mutex::new(Cell::new(None)))
+        FlowInbox(Mutex::new(Cell::new(FlowSum {
+            sum: None,
+            poisoned: false,
+        })))
     }
 
-    #[expect(
-        dead_code,
-        reason = "the flow task calls it once the PMW3901 driver is wired"
-    )]
     /// Adds one sensor read's motion (saturating: a flow sensor cannot move 2^31 counts in
     /// a tick, so saturation means a fault the core's gates will see, not a wrap).
     pub fn add(&self, delta: FlowDelta) {
-        self.0.lock(|sum| {
-            let old = sum.get().unwrap_or_default();
-            sum.set(Some(FlowDelta {
+        self.0.lock(|state| {
+            let mut s = state.get();
+            let old = s.sum.unwrap_or_default();
+            s.sum = Some(FlowDelta {
                 forward_counts: old.forward_counts.saturating_add(delta.forward_counts),
                 right_counts: old.right_counts.saturating_add(delta.right_counts),
-            }));
+            });
+            state.set(s);
         });
     }
 
-    /// The motion since the last call, or `None` (stale) if no reading arrived.
+    /// Marks this tick's flow as unusable: a read was lost.
+    pub fn poison(&self) {
+        self.0.lock(|state| {
+            let mut s = state.get();
+            s.poisoned = true;
+            state.set(s);
+        });
+    }
+
+    /// The motion since the last call, or `None` (stale) if no reading arrived or one
+    /// failed.
     pub fn take(&self) -> Option<FlowDelta> {
-        self.0.lock(Cell::take)
+        let s = self.0.lock(Cell::take);
+        if s.poisoned {
+            None
+        } else {
+            s.sum
+        }
     }
 }
 
@@ -74,10 +108,6 @@ impl GyroInbox {
         GyroInbox(Mutex::new(Cell::new(None)))
     }
 
-    #[expect(
-        dead_code,
-        reason = "the IMU task calls it once the IMU driver is wired"
-    )]
     /// Adds one bias-corrected yaw-rate sample.
     pub fn add(&self, rate: GyroRate) {
         self.0.lock(|sum| {
@@ -102,13 +132,40 @@ impl GyroInbox {
     }
 }
 
+/// The robot's heading as the gyro alone integrates it, for the motion task's turns.
+///
+/// Kept apart from the SLAM pose on purpose: turns are ended by the gyro, as on the real
+/// robot, and must not jump when a tag fix corrects the pose. In nanodegrees
+/// (millidegrees per second times microseconds), so integration never rounds; an `i64`
+/// holds 9 x 10^9 degrees of turning.
+pub struct YawIntegrator(Mutex<CriticalSectionRawMutex, Cell<i64>>);
+
+impl YawIntegrator {
+    /// Zero yaw.
+    pub const fn new() -> Self {
+        YawIntegrator(Mutex::new(Cell::new(0)))
+    }
+
+    /// Integrates `rate` over `dt_us` microseconds.
+    pub fn integrate(&self, rate: GyroRate, dt_us: u32) {
+        let step = i64::from(rate.rate_mdps) * i64::from(dt_us);
+        self.0.lock(|yaw| yaw.set(yaw.get().saturating_add(step)));
+    }
+
+    /// Turned since start, in millidegrees, positive clockwise seen from above.
+    pub fn yaw_mdeg(&self) -> i64 {
+        self.0.lock(Cell::get) / 1_000_000
+    }
+}
+
 /// The newest depth scan not yet mapped.
 pub type DepthInbox = Signal<CriticalSectionRawMutex, DepthScan>;
 
 /// The tags in the camera's newest picture not yet used.
 pub type TagInbox = Signal<CriticalSectionRawMutex, TagDetections>;
 
-/// Every input of the SLAM tick, one inbox per sensor.
+/// Every input of the SLAM tick, one inbox per sensor, plus the gyro's own yaw for the
+/// motion task.
 pub struct Inputs {
     /// Written by [`crate::sensors::flow`].
     pub flow: FlowInbox,
@@ -118,6 +175,11 @@ pub struct Inputs {
     pub depth: DepthInbox,
     /// Written by [`crate::sensors::camera`].
     pub tags: TagInbox,
+    /// Written by [`crate::sensors::imu`], read by [`crate::motion`].
+    pub yaw: YawIntegrator,
+    /// Raised once by [`crate::sensors::imu`] when the gyro bias is calibrated and yaw
+    /// integration has begun; [`crate::motion`] waits for it before moving.
+    pub gyro_ready: Signal<CriticalSectionRawMutex, ()>,
 }
 
 impl Inputs {
@@ -128,6 +190,8 @@ impl Inputs {
             gyro: GyroInbox::new(),
             depth: Signal::new(),
             tags: Signal::new(),
+            yaw: YawIntegrator::new(),
+            gyro_ready: Signal::new(),
         }
     }
 }

@@ -2,21 +2,27 @@
 //!
 //! `main` only brings the chip up, binds interrupts, splits the board by part
 //! ([`board::Board`]) and spawns one task per part. The tasks own their hardware and
-//! talk through [`inputs`] (sensors to the SLAM tick) and [`slam_task::REPORTS`] (the
-//! tick to telemetry).
+//! talk through [`inputs`] (sensors to the SLAM tick, gyro yaw to motion),
+//! [`slam_task::REPORTS`] (the tick's heartbeat to motion),
+//! [`slam_task::TELEMETRY_FRAMES`] (encoded frames to telemetry) and [`health::HEALTH`]
+//! (every task's fault counters).
+//!
+//! Boot: the robot must stand still for about 1.1 s after reset while the IMU task
+//! calibrates the gyro bias; the motion task starts the route only after that.
 #![no_std]
 #![no_main]
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 
 use embassy_executor::Spawner;
-use embassy_rp::peripherals::{DMA_CH0, DMA_CH1, I2C0, I2C1, UART0, UART1};
+use embassy_rp::peripherals::{DMA_CH0, DMA_CH1, DMA_CH2, I2C0, I2C1, UART0};
 use embassy_rp::{bind_interrupts, dma, i2c, uart};
 use {defmt_rtt as _, panic_probe as _};
 
 mod board;
+mod health;
 mod inputs;
-mod motors;
+mod motion;
 mod sensors;
 mod slam_task;
 mod status_led;
@@ -27,9 +33,8 @@ bind_interrupts!(
     pub struct Irqs {
         I2C0_IRQ => i2c::InterruptHandler<I2C0>;
         I2C1_IRQ => i2c::InterruptHandler<I2C1>;
-        DMA_IRQ_0 => dma::InterruptHandler<DMA_CH0>, dma::InterruptHandler<DMA_CH1>;
+        DMA_IRQ_0 => dma::InterruptHandler<DMA_CH0>, dma::InterruptHandler<DMA_CH1>, dma::InterruptHandler<DMA_CH2>;
         UART0_IRQ => uart::BufferedInterruptHandler<UART0>;
-        UART1_IRQ => uart::BufferedInterruptHandler<UART1>;
     }
 );
 
@@ -38,21 +43,25 @@ async fn main(spawner: Spawner) {
     let board = board::Board::split(embassy_rp::init(Default::default()));
     defmt::info!("BugBot firmware {}", env!("CARGO_PKG_VERSION"));
 
-    let Some(telemetry_reports) = slam_task::REPORTS.receiver() else {
-        defmt::panic!("no report receiver left for telemetry");
+    let Some(motion_reports) = slam_task::REPORTS.receiver() else {
+        defmt::panic!("no report receiver left for motion");
     };
     let inputs = &inputs::INPUTS;
 
     spawner.spawn(defmt::unwrap!(slam_task::slam_task(board.watchdog, inputs)));
+    #[cfg(feature = "vl53l5cx")]
+    {
+        sensors::depth::start_core1(board.depth);
+        spawner.spawn(defmt::unwrap!(sensors::depth::depth_task(&inputs.depth)));
+    }
+    #[cfg(not(feature = "vl53l5cx"))]
     spawner.spawn(defmt::unwrap!(sensors::depth::depth_task(
         board.depth,
         Irqs,
         &inputs.depth
     )));
     spawner.spawn(defmt::unwrap!(sensors::imu::imu_task(
-        board.imu,
-        Irqs,
-        &inputs.gyro
+        board.imu, Irqs, inputs
     )));
     spawner.spawn(defmt::unwrap!(sensors::flow::flow_task(
         board.flow,
@@ -66,10 +75,13 @@ async fn main(spawner: Spawner) {
     )));
     spawner.spawn(defmt::unwrap!(telemetry::telemetry_task(
         board.telemetry,
-        Irqs,
-        telemetry_reports
+        Irqs
     )));
-    spawner.spawn(defmt::unwrap!(motors::motor_task(board.motors)));
+    spawner.spawn(defmt::unwrap!(motion::motion_task(
+        board.motors,
+        inputs,
+        motion_reports
+    )));
     spawner.spawn(defmt::unwrap!(status_led::status_led_task(
         board.status_led
     )));

@@ -1,15 +1,32 @@
 //! The SLAM loop: a 10 Hz tick that gathers the latest sensor readings into a
-//! [`SensorFrame`], runs the core's `step`, publishes the report and feeds the watchdog.
+//! [`SensorFrame`], runs the core's `step`, publishes the report, frames this tick's
+//! telemetry and feeds the watchdog.
+//!
+//! # Why the telemetry frames are made here
+//!
+//! A `MapRows` message needs the grid, and the grid lives in the SLAM state that only this
+//! loop touches. Rather than share the 4 KB grid behind a lock (the telemetry task would
+//! then hold up the tick, or copy the grid each time), this loop runs the core's
+//! [`Streamer`] right after `step`, while it holds the map anyway, and queues each encoded
+//! frame (at most [`MAX_FRAME_LEN`] bytes) in [`TELEMETRY_FRAMES`]. The telemetry task only
+//! moves bytes to the UART. Encoding costs a few hundred microseconds a tick, and the queue
+//! is never waited on: when it is full (the link is behind) a frame is dropped and counted.
+//! The simulator calls the same `Streamer`, so it records the same messages; today it uses
+//! `Schedule::DEFAULT` (one map chunk a tick) where the robot sends two (see
+//! [`TELEMETRY_SCHEDULE`]), so only the map sweep's pace differs.
 
 use embassy_rp::peripherals::WATCHDOG;
 use embassy_rp::watchdog::{ResetReason, Watchdog};
 use embassy_rp::Peri;
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
+use embassy_sync::channel::Channel;
 use embassy_sync::watch::{Receiver, Watch};
 use embassy_time::{Duration, Instant, Ticker};
+use slam_core::telemetry::{encode, FirmwareVersion, Message, Schedule, Streamer, MAX_FRAME_LEN};
 use slam_core::{Pose, SeedSlam, SensorFrame, SlamConfig, StepReport};
 use static_cell::StaticCell;
 
+use crate::health::HEALTH;
 use crate::inputs::Inputs;
 
 /// The SLAM period: 10 Hz, the rate the core's odometry and mapping are tuned for.
@@ -25,8 +42,48 @@ const TICKS_PER_LOG: u32 = 10;
 /// where tags 11 and 12 hang (the simulator's scenario is tested to agree).
 pub const START_POSE: Pose = SlamConfig::SEED_START;
 
-/// How many tasks may follow the reports: telemetry now, a motion planner later.
+/// How many tasks may follow the reports: the motion task (its heartbeat) and one spare
+/// for a planner.
 pub const REPORT_READERS: usize = 2;
+
+/// The telemetry schedule at 10 Hz: a `Hello` at the first tick and every 5 s, a `Tick`
+/// every tick, two `MapRows` chunks (four rows of the 46 x 46 grid) every tick, so the
+/// whole map goes round every 1.2 s, and a `Health` every second. At most about 700 bytes
+/// a tick, 7 ms of the 921600 baud link.
+pub const TELEMETRY_SCHEDULE: Schedule = Schedule {
+    hello_every_ticks: 50,
+    health_every_ticks: 10,
+    map_chunks_per_tick: 2,
+};
+
+/// Frames queued for the link: one tick's worth (at most five) with room to spare.
+pub const TELEMETRY_QUEUE: usize = 8;
+
+/// One encoded telemetry frame, delimiter included.
+pub struct TelemetryFrame {
+    /// Bytes used in `bytes`.
+    len: usize,
+    bytes: [u8; MAX_FRAME_LEN],
+}
+
+impl TelemetryFrame {
+    /// The frame's bytes, ready for the wire.
+    pub fn as_bytes(&self) -> &[u8] {
+        self.bytes.get(..self.len).unwrap_or(&[])
+    }
+}
+
+/// Encoded frames from this loop to the telemetry task. A `Channel`: every frame matters
+/// to the viewer and they must stay in order; the loop only ever `try_send`s.
+pub static TELEMETRY_FRAMES: Channel<CriticalSectionRawMutex, TelemetryFrame, TELEMETRY_QUEUE> =
+    Channel::new();
+
+/// The firmware version sent in every `Hello`, from `Cargo.toml`.
+const FIRMWARE_VERSION: FirmwareVersion = FirmwareVersion {
+    major: parse_u8(env!("CARGO_PKG_VERSION_MAJOR")),
+    minor: parse_u8(env!("CARGO_PKG_VERSION_MINOR")),
+    patch: parse_u8(env!("CARGO_PKG_VERSION_PATCH")),
+};
 
 /// Each tick's [`StepReport`]. A `Watch`: one writer (this loop), several readers that
 /// each see the newest report and never hold the loop up; a slow reader skips reports.
@@ -55,6 +112,8 @@ pub struct LoopCounters {
     pub max_late_us: u32,
     /// Worst time spent in `step`, in microseconds.
     pub max_step_us: u32,
+    /// Worst time spent framing the tick's telemetry, in microseconds.
+    pub max_telemetry_us: u32,
 }
 
 /// Runs the SLAM loop for good.
@@ -83,6 +142,7 @@ pub async fn slam_task(watchdog: Peri<'static, WATCHDOG>, inputs: &'static Input
     watchdog.start(WATCHDOG_TIMEOUT);
 
     let reports = REPORTS.sender();
+    let mut streamer = Streamer::new(TELEMETRY_SCHEDULE, FIRMWARE_VERSION);
     let mut health = LoopCounters::default();
     let mut ticker = Ticker::every(TICK);
     let mut deadline = Instant::now() + TICK;
@@ -96,6 +156,7 @@ pub async fn slam_task(watchdog: Peri<'static, WATCHDOG>, inputs: &'static Input
         health.max_late_us = health.max_late_us.max(micros(late));
         if late > TICK {
             health.overruns = health.overruns.wrapping_add(1);
+            HEALTH.tick_overruns.bump();
             ticker.reset_at(started);
             deadline = started + TICK;
         } else {
@@ -122,11 +183,61 @@ pub async fn slam_task(watchdog: Peri<'static, WATCHDOG>, inputs: &'static Input
         health.ticks = health.ticks.wrapping_add(1);
 
         watchdog.feed(WATCHDOG_TIMEOUT);
+        HEALTH.watchdog_feeds.bump();
         reports.send(report);
+
+        let framing = Instant::now();
+        let time_ms = u32::try_from(started.as_millis()).unwrap_or(u32::MAX);
+        let sensor_health = HEALTH.sensor_health();
+        streamer.tick(time_ms, &report, slam.map(), &sensor_health, queue_frame);
+        health.max_telemetry_us = health
+            .max_telemetry_us
+            .max(micros(Instant::now().saturating_duration_since(framing)));
 
         if health.ticks % TICKS_PER_LOG == 0 {
             log(&report, &health);
         }
+    }
+}
+
+/// Encodes `message` and queues it for the telemetry task without waiting: a full queue
+/// drops the frame (counted), an encoding failure is counted too.
+fn queue_frame(message: &Message) {
+    let mut frame = TelemetryFrame {
+        len: 0,
+        bytes: [0; MAX_FRAME_LEN],
+    };
+    match encode(message, &mut frame.bytes) {
+        Ok(len) => {
+            frame.len = len;
+            if TELEMETRY_FRAMES.try_send(frame).is_err() {
+                HEALTH.telemetry_dropped.bump();
+            }
+        }
+        Err(e) => {
+            defmt::warn!("slam: telemetry frame not encoded: {}", e);
+            HEALTH.telemetry_errors.bump();
+        }
+    }
+}
+
+/// A decimal `u8` at compile time (for the version numbers); 0 if it is not one.
+const fn parse_u8(s: &str) -> u8 {
+    let bytes = s.as_bytes();
+    let mut value: u32 = 0;
+    let mut i = 0;
+    while i < bytes.len() {
+        let digit = bytes[i];
+        if !digit.is_ascii_digit() || value > 25 {
+            return 0;
+        }
+        value = value * 10 + (digit - b'0') as u32;
+        i += 1;
+    }
+    if value > 255 {
+        0
+    } else {
+        value as u8
     }
 }
 
@@ -146,6 +257,8 @@ fn log(report: &StepReport, health: &LoopCounters) {
         c.fixes_rejected_geometry + c.fixes_rejected_gate,
         c.beams_mapped,
     );
+    defmt::info!("health: {}", HEALTH.sensor_health());
+    HEALTH.log_firmware_detail();
 }
 
 /// A duration in whole microseconds, saturating at `u32::MAX` (71 minutes).

@@ -1,46 +1,45 @@
-//! Telemetry task (UART1 for now, USB CDC later): sends each SLAM tick's report to the host.
+//! Telemetry task: moves the SLAM loop's encoded frames ([`TELEMETRY_FRAMES`]) out on
+//! UART1 TX (GP8) at 921600 baud 8N1, by DMA (channel 2, UART1 TX DREQ).
+//!
+//! The frames are the core's telemetry stream (`slam_core::telemetry`: postcard body,
+//! CRC-16, COBS, `0x00` after every frame); what goes out when is set by
+//! [`crate::slam_task::TELEMETRY_SCHEDULE`]. This task never waits on the SLAM loop and
+//! the loop never waits on it: frames queue in a bounded channel and the loop drops (and
+//! counts) what does not fit. A lone `0x00` goes out first so a receiver that was
+//! listening before reset drops its partial frame.
 
-use embassy_rp::uart::{self, BufferedUart};
-use static_cell::ConstStaticCell;
+use embassy_rp::uart::{self, UartTx};
+use embassy_time::{with_timeout, Duration};
 
 use crate::board::{TelemetryLinkPins, TELEMETRY_BAUD};
-use crate::slam_task::ReportReceiver;
+use crate::health::HEALTH;
+use crate::slam_task::TELEMETRY_FRAMES;
 use crate::Irqs;
 
-/// Transmit buffer, in bytes: room for a report frame and a map slice per tick.
-const TX_BUFFER_BYTES: usize = 512;
-/// Receive buffer, in bytes: host commands are short.
-const RX_BUFFER_BYTES: usize = 64;
+/// Longest one frame may take to leave: 142 bytes take 1.5 ms at 921600 baud.
+const WRITE_TIMEOUT: Duration = Duration::from_millis(50);
 
-static TX_BUFFER: ConstStaticCell<[u8; TX_BUFFER_BYTES]> =
-    ConstStaticCell::new([0; TX_BUFFER_BYTES]);
-static RX_BUFFER: ConstStaticCell<[u8; RX_BUFFER_BYTES]> =
-    ConstStaticCell::new([0; RX_BUFFER_BYTES]);
-
-/// Runs the telemetry link.
-///
-/// Until the project's telemetry framing exists this only follows the reports (so the
-/// seam is exercised) and sends nothing; defmt carries the once-a-second log meanwhile.
-///
-/// Wiring the framing: for each report, `emit` a telemetry frame (pose, fix outcome,
-/// staleness, counters) into a stack buffer and `write_all` it to `uart`; send the map in
-/// row slices spread over ticks so one tick never blocks on the whole grid. A full TX
-/// buffer must drop a frame (and count it), never stall the SLAM loop: the loop does not
-/// wait on this task.
+/// Runs the telemetry link for good.
 #[embassy_executor::task]
-pub async fn telemetry_task(pins: TelemetryLinkPins, irqs: Irqs, mut reports: ReportReceiver) -> ! {
+pub async fn telemetry_task(pins: TelemetryLinkPins, irqs: Irqs) -> ! {
     let mut config = uart::Config::default();
     config.baudrate = TELEMETRY_BAUD;
-    let _uart = BufferedUart::new(
-        pins.uart,
-        pins.tx,
-        pins.rx,
-        irqs,
-        TX_BUFFER.take(),
-        RX_BUFFER.take(),
-        config,
-    );
+    let mut uart = UartTx::new(pins.uart, pins.tx, pins.tx_dma, irqs, config);
+    send(&mut uart, &[0]).await;
     loop {
-        let _report = reports.changed().await;
+        let frame = TELEMETRY_FRAMES.receive().await;
+        send(&mut uart, frame.as_bytes()).await;
+    }
+}
+
+/// Writes `bytes`, counting a failure or a timeout.
+async fn send(uart: &mut UartTx<'static, uart::Async>, bytes: &[u8]) {
+    match with_timeout(WRITE_TIMEOUT, uart.write(bytes)).await {
+        Ok(Ok(())) => {}
+        Ok(Err(e)) => {
+            defmt::warn!("telemetry: UART write failed: {}", e);
+            HEALTH.telemetry_errors.bump();
+        }
+        Err(_) => HEALTH.telemetry_errors.bump(),
     }
 }

@@ -1,37 +1,45 @@
-//! Camera co-processor task (UART0): parses its tag-detection frames and publishes each
-//! picture's tags into [`TagInbox`].
+//! Camera co-processor task (UART0, 115200 baud 8N1, RX on GP1): decodes its tag-detection
+//! frames and publishes each picture's tags into [`TagInbox`], the latest picture winning.
+//!
+//! The UART is *buffered* (interrupt driven into a ring buffer), not DMA: bytes that arrive
+//! while the task is busy are kept, and it is the RX mode the emulator supports once its
+//! `UARTDMACR` and TX-interrupt gaps are covered (see `shared/EMULATOR.md`).
+//!
+//! Frames are the camera link's COBS + CRC frames (`drivers::camera_link`); the decoder
+//! resynchronises at the next `0x00` after line noise or a cut frame. Each good frame, even
+//! one with no tags, replaces the previous picture: a picture with no tags in view is news
+//! too (the tags left the view), and the SLAM tick treats an empty list as "no fix".
 
+use drivers::camera_link::{FrameDecoder, FrameRepr};
 use embassy_rp::uart::{self, BufferedUart};
+use embedded_io_async::Read;
+use slam_core::{TagDetection, TagDetections};
 use static_cell::ConstStaticCell;
 
 use crate::board::{CameraLinkPins, CAMERA_BAUD};
+use crate::health::HEALTH;
 use crate::inputs::TagInbox;
 use crate::Irqs;
 
 /// Receive buffer, in bytes: a few frames of detections at 115200 baud between polls.
 const RX_BUFFER_BYTES: usize = 256;
-/// Transmit buffer, in bytes: commands to the co-processor are short.
+/// Transmit buffer, in bytes: commands to the co-processor are short (none yet).
 const TX_BUFFER_BYTES: usize = 32;
+/// Bytes taken from the ring buffer per read.
+const READ_CHUNK_BYTES: usize = 64;
 
 static RX_BUFFER: ConstStaticCell<[u8; RX_BUFFER_BYTES]> =
     ConstStaticCell::new([0; RX_BUFFER_BYTES]);
 static TX_BUFFER: ConstStaticCell<[u8; TX_BUFFER_BYTES]> =
     ConstStaticCell::new([0; TX_BUFFER_BYTES]);
 
-/// Runs the camera link.
-///
-/// Placeholder until the camera link's frame parser lands: the UART is up (buffered and
-/// interrupt driven, so bytes arriving between reads are kept), nothing is published, so
-/// every tick has no tags.
-///
-/// Wiring the parser: read bytes from `uart` (`embedded-io-async` `Read`), feed them to
-/// `drivers::camera_link`'s decoder (COBS framing, CRC, checked `Packet`/`Repr`), and for
-/// each complete picture `tags.signal(detections)`; a bad frame is counted and skipped.
+/// Runs the camera link for good. A UART error (overrun, framing, break) is counted as a
+/// bad frame; the decoder then drops the cut frame at the next delimiter by itself.
 #[embassy_executor::task]
 pub async fn camera_task(pins: CameraLinkPins, irqs: Irqs, tags: &'static TagInbox) -> ! {
     let mut config = uart::Config::default();
     config.baudrate = CAMERA_BAUD;
-    let _uart = BufferedUart::new(
+    let mut uart = BufferedUart::new(
         pins.uart,
         pins.tx,
         pins.rx,
@@ -40,7 +48,45 @@ pub async fn camera_task(pins: CameraLinkPins, irqs: Irqs, tags: &'static TagInb
         RX_BUFFER.take(),
         config,
     );
-    let _ = tags;
-    defmt::warn!("camera: link parser not wired; no tags");
-    super::park().await
+    let mut decoder = FrameDecoder::new();
+    let mut rejected_seen = 0u32;
+    let mut chunk = [0u8; READ_CHUNK_BYTES];
+    loop {
+        let n = match uart.read(&mut chunk).await {
+            Ok(n) => n,
+            Err(e) => {
+                defmt::warn!("camera: UART receive error {}", e);
+                HEALTH.camera_bad_frames.bump();
+                continue;
+            }
+        };
+        for frame in decoder.feed(chunk.get(..n).unwrap_or(&[])) {
+            HEALTH.camera_frames.bump();
+            tags.signal(to_core(&frame));
+        }
+        // The decoder counts rejects by kind; the health struct wants the total.
+        let rejected = decoder.stats().rejected();
+        HEALTH
+            .camera_bad_frames
+            .add(rejected.wrapping_sub(rejected_seen));
+        rejected_seen = rejected;
+    }
+}
+
+/// The core's view of one picture: id, centre column in centipixels, distance in
+/// millimetres. The link's ranges are already checked (`cx <= 32000`), so no conversion
+/// can fail; detections past the core's capacity are dropped and counted.
+fn to_core(frame: &FrameRepr) -> TagDetections {
+    let mut out = TagDetections::default();
+    for d in frame.detections() {
+        let detection = TagDetection {
+            id: d.tag_id(),
+            cx_centipx: i32::from(d.cx_centipx()),
+            distance_mm: u32::from(d.distance_mm()),
+        };
+        if out.push(detection).is_err() {
+            HEALTH.camera_tags_dropped.bump();
+        }
+    }
+    out
 }

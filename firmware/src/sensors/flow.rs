@@ -1,24 +1,67 @@
-//! PMW3901 optical flow task (SPI0 with DMA): adds each motion read to [`FlowInbox`]; the
-//! SLAM tick takes the sum.
+//! PMW3901 optical flow task (SPI0 with DMA, 100 Hz): adds each good motion read to
+//! [`FlowInbox`]; the SLAM tick takes the sum.
+//!
+//! Bus: SPI0, mode 3 (CPOL 1, CPHA 1), 2 MHz, MSB first; SCK GP18, MOSI GP19, MISO GP16,
+//! chip select GP17 driven as a GPIO (active low). The bus sits in a `Mutex` and the
+//! driver gets an `embassy-embedded-hal` `SpiDevice`, so it sees only the
+//! `embedded-hal-async` trait, and a second device on SPI0 would get its own `SpiDevice`.
+//! That `SpiDevice` also carries out the driver's `DelayNs` steps (the datasheet's tSRAD)
+//! inside a transaction, with chip select held.
 
+use drivers::flow::{Error as FlowError, FlowCalibration, FlowConfig, FlowReading, Pmw3901};
+use embassy_embedded_hal::shared_bus::asynch::spi::SpiDevice;
 use embassy_rp::gpio::{Level, Output};
-use embassy_rp::spi::{self, Phase, Polarity, Spi};
+use embassy_rp::peripherals::SPI0;
+use embassy_rp::spi::{self, Async, Phase, Polarity, Spi};
+use embassy_sync::blocking_mutex::raw::NoopRawMutex;
+use embassy_sync::mutex::Mutex;
+use embassy_time::{with_timeout, Delay, Duration, Ticker, Timer};
+use slam_core::FlowDelta;
+use static_cell::StaticCell;
 
 use crate::board::{FlowSensorPins, FLOW_SPI_HZ};
+use crate::health::HEALTH;
 use crate::inputs::FlowInbox;
 use crate::Irqs;
 
-/// Runs the flow sensor.
+/// Read period: 100 Hz keeps each read's delta far inside the driver's outlier limit.
+const READ_PERIOD: Duration = Duration::from_millis(10);
+
+/// Longest a motion burst read may take (it needs about 0.1 ms at 2 MHz).
+const READ_TIMEOUT: Duration = Duration::from_millis(5);
+
+/// Longest the start-up sequence may take (about 120 ms of datasheet waits).
+const INIT_TIMEOUT: Duration = Duration::from_millis(500);
+
+/// First wait after a failed start-up; doubled after each failure up to [`MAX_BACKOFF`].
+const FIRST_BACKOFF: Duration = Duration::from_millis(100);
+
+/// Longest wait between two start-up attempts.
+const MAX_BACKOFF: Duration = Duration::from_secs(5);
+
+/// Bus errors or timeouts in a row after which the sensor is started up again (it may
+/// have lost power or been unplugged).
+const ERRORS_BEFORE_RESTART: u32 = 10;
+
+/// Counts to micrometres as the core sees it (`OdometryConfig::NOMINAL`, 100 um per
+/// count). The core scales counts itself; the driver's scale only fills `FlowSample`'s
+/// micrometre fields, which nothing here uses, so the two are kept equal to avoid
+/// confusion.
+const CALIBRATION: FlowCalibration = FlowCalibration::from_um_per_count_q16(100 << 16);
+
+/// SPI0, shared through a mutex (one user today, the PMW3901).
+type FlowBus = Mutex<NoopRawMutex, Spi<'static, SPI0, Async>>;
+
+static BUS: StaticCell<FlowBus> = StaticCell::new();
+
+type Sensor = Pmw3901<SpiDevice<'static, NoopRawMutex, Spi<'static, SPI0, Async>, Output<'static>>>;
+
+/// Runs the flow sensor for good: start-up with retries, then a read every 10 ms.
 ///
-/// Placeholder until the `drivers` crate's PMW3901 driver lands: the bus is up and CS is
-/// high (deselected), nothing is published, so every tick's flow is stale.
-///
-/// Wiring the driver: `drivers::flow::Pmw3901` wants an `embedded-hal-async` `SpiDevice`:
-/// wrap `spi` and `cs` in an exclusive device (`embedded-hal-bus`'s `ExclusiveDevice`, or
-/// `embassy-embedded-hal`'s `SpiDevice` over a `Mutex` if the bus is ever shared), then
-/// `init(&mut embassy_time::Delay)` and `read()` at 100 Hz or faster (a `Ticker`); add
-/// each good reading, in robot frame (`forward_counts`, `right_counts`), with
-/// `motion.add(..)`. Low-quality reads are skipped, so a tick without a good read is stale.
+/// Each read ends one of four ways: good motion is added to `motion`; no surface,
+/// an outlier, a bus error or a timeout is counted in [`HEALTH`] and poisons the current
+/// SLAM tick's flow (stale). After [`ERRORS_BEFORE_RESTART`] bus failures in a row the
+/// sensor is started up again.
 #[embassy_executor::task]
 pub async fn flow_task(pins: FlowSensorPins, irqs: Irqs, motion: &'static FlowInbox) -> ! {
     let mut config = spi::Config::default();
@@ -26,7 +69,7 @@ pub async fn flow_task(pins: FlowSensorPins, irqs: Irqs, motion: &'static FlowIn
     // SPI mode 3: clock idles high, data captured on the rising (second) edge.
     config.polarity = Polarity::IdleHigh;
     config.phase = Phase::CaptureOnSecondTransition;
-    let _spi = Spi::new(
+    let spi = Spi::new(
         pins.spi,
         pins.sck,
         pins.mosi,
@@ -36,8 +79,73 @@ pub async fn flow_task(pins: FlowSensorPins, irqs: Irqs, motion: &'static FlowIn
         irqs,
         config,
     );
-    let _cs = Output::new(pins.cs, Level::High);
-    let _ = motion;
-    defmt::warn!("flow: PMW3901 driver not wired; flow input stays stale");
-    super::park().await
+    let bus = BUS.init(Mutex::new(spi));
+    let cs = Output::new(pins.cs, Level::High);
+    let mut sensor = Pmw3901::new(SpiDevice::new(bus, cs), FlowConfig::new(CALIBRATION));
+
+    loop {
+        start(&mut sensor).await;
+        defmt::info!("flow: PMW3901 running at 100 Hz");
+        read_until_lost(&mut sensor, motion).await;
+        defmt::warn!(
+            "flow: {=u32} bus failures in a row; restarting",
+            ERRORS_BEFORE_RESTART
+        );
+    }
+}
+
+/// Starts the sensor, retrying with a doubling back-off until it answers.
+async fn start(sensor: &mut Sensor) {
+    let mut backoff = FIRST_BACKOFF;
+    loop {
+        match with_timeout(INIT_TIMEOUT, sensor.init(&mut Delay)).await {
+            Ok(Ok(())) => return,
+            Ok(Err(e)) => {
+                if matches!(e, FlowError::Bus(_)) {
+                    HEALTH.flow_bus_errors.bump();
+                }
+                defmt::warn!("flow: start-up failed: {}", e);
+            }
+            Err(_) => {
+                HEALTH.flow_bus_errors.bump();
+                defmt::warn!("flow: start-up timed out");
+            }
+        }
+        HEALTH.flow_init_failures.bump();
+        Timer::after(backoff).await;
+        backoff = (backoff * 2).min(MAX_BACKOFF);
+    }
+}
+
+/// Reads at 100 Hz until the bus fails [`ERRORS_BEFORE_RESTART`] times in a row.
+async fn read_until_lost(sensor: &mut Sensor, motion: &FlowInbox) {
+    let mut ticker = Ticker::every(READ_PERIOD);
+    let mut failures_in_a_row = 0;
+    while failures_in_a_row < ERRORS_BEFORE_RESTART {
+        ticker.next().await;
+        let reading = match with_timeout(READ_TIMEOUT, sensor.read()).await {
+            Ok(Ok(reading)) => reading,
+            Ok(Err(_)) | Err(_) => {
+                HEALTH.flow_bus_errors.bump();
+                motion.poison();
+                failures_in_a_row += 1;
+                continue;
+            }
+        };
+        failures_in_a_row = 0;
+        match reading {
+            FlowReading::Motion(sample) => motion.add(FlowDelta {
+                forward_counts: i32::from(sample.forward_counts),
+                right_counts: i32::from(sample.right_counts),
+            }),
+            FlowReading::NoSurface { .. } => {
+                HEALTH.flow_no_surface.bump();
+                motion.poison();
+            }
+            FlowReading::Outlier { .. } => {
+                HEALTH.flow_outliers.bump();
+                motion.poison();
+            }
+        }
+    }
 }

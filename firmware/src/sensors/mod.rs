@@ -1,14 +1,13 @@
 //! One task per sensor. Each owns its bus and pins (from [`crate::board`]) and publishes
 //! readings into its inbox in [`crate::inputs`].
 //!
-//! The drivers are being written in the `drivers` crate; until they land, each task brings
-//! its bus up (so the wiring and the interrupt bindings are checked by the compiler and the
-//! pins sit in a defined state) and then parks without publishing. The SLAM tick therefore
-//! sees every input as stale, which it counts in `Counters::{flow,gyro,depth}_stale`.
-//!
-//! Each bus has a single device on it, so the task owns the bus outright. If a second
-//! device joins a bus, the bus moves into a `StaticCell<Mutex<..>>` and each driver gets an
-//! `I2cDevice`/`SpiDevice` from `embassy-embedded-hal`.
+//! Each task owns its bus. The drivers (`drivers` crate) see only `embedded-hal-async`
+//! traits: the flow and IMU buses sit in a `StaticCell<Mutex<..>>` and the driver gets an
+//! `embassy-embedded-hal` `SpiDevice`/`I2cDevice`, so a second device can join a bus
+//! without touching the first. No sensor fault panics: a bus error, a timeout
+//! (`embassy_time::with_timeout`) or an implausible value is counted in
+//! [`crate::health::HEALTH`] and the input goes stale, which the SLAM tick counts in
+//! `Counters::{flow,gyro,depth}_stale`.
 
 pub mod camera;
 pub mod depth;

@@ -1,0 +1,303 @@
+//! Motion task: drives the seed's route through the DRV8833 ([`Motors`]), open loop on
+//! speed, with turns ended by the integrated gyro, as on the real robot.
+//!
+//! # Motor model (the one place its numbers live)
+//!
+//! At full duty (1000 per mille) a wheel runs [`WHEEL_FULL_SPEED_MM_S`] (300 mm/s), and
+//! the wheels are [`WHEEL_BASE_MM`] (100 mm) apart. Speed is taken as proportional to duty
+//! (the DRV8833 in slow decay, see `drivers::motors`), so for a forward speed `v` and a
+//! clockwise turn rate `w`, `drive(forward, turn)` gets
+//!
+//! - `forward = v / 300 mm/s * 1000`, and
+//! - `turn = (w in rad/s) * (100 mm / 2) / 300 mm/s * 1000`,
+//!
+//! which `drivers::motors::mix` turns into `left = forward + turn`,
+//! `right = forward - turn`. The seed route's 86 mm/s is 287 per mille, its 31.5 deg/s
+//! turn 92 per mille. The emulator harness reads the PWM duty back and the simulator uses
+//! the same two constants, so change them here and there together.
+//!
+//! # PWM, for whoever reads it back
+//!
+//! Left motor: PWM slice 5, channel A on GP10 (DRV8833 AIN1), channel B on GP11 (AIN2).
+//! Right motor: slice 6, A on GP12 (BIN1), B on GP13 (BIN2). 20 kHz: `TOP` 6249, divider
+//! 1, not phase-correct, at 125 MHz. Slow decay: driving forward at `d` per mille holds
+//! IN1 at compare `TOP` (always on, bar one count in 6250) and IN2 at
+//! `(1000 - d) / 1000 * TOP` (IN2's low share is the drive); reverse swaps the two pins.
+//! Coast (stop) is both compares 0. So a wheel's per mille is
+//! `1000 * (cc_in1 - cc_in2) / TOP`, positive forward.
+//!
+//! # Safety
+//!
+//! The route starts only once the IMU task has calibrated the gyro bias (the robot must
+//! stand still ~1.1 s after reset). While driving, the SLAM loop's reports are the
+//! heartbeat: if none arrives for [`SLAM_SILENCE`], the motors coast and the route
+//! pauses (a drive's clock stops too) until reports come back; each such halt is counted.
+//! A turn that the gyro has not finished within twice its planned time plus two seconds
+//! means the gyro is not to be trusted: the route is abandoned and the motors coast.
+
+use drivers::motors::{HBridge, MotorConfig, Motors, PerMille};
+use embassy_rp::pwm::{self, Pwm, PwmError, PwmOutput};
+use embassy_time::{Duration, Instant, Ticker};
+
+use crate::board::{MotorPins, MOTOR_PWM_TOP};
+use crate::health::HEALTH;
+use crate::inputs::Inputs;
+use crate::slam_task::ReportReceiver;
+
+/// Wheel speed at full duty, millimetres per second.
+pub const WHEEL_FULL_SPEED_MM_S: i64 = 300;
+
+/// Distance between the two wheels' contact points, millimetres.
+pub const WHEEL_BASE_MM: i64 = 100;
+
+/// Per mille of full duty for a forward speed, rounded to nearest.
+pub const fn forward_permille(speed_mm_s: i64) -> i64 {
+    div_round(speed_mm_s * 1000, WHEEL_FULL_SPEED_MM_S)
+}
+
+/// Per mille of full duty for a turn rate in millidegrees per second (positive
+/// clockwise), rounded to nearest: `rate * pi * base / (360 * full speed)`, with pi as
+/// 355/113 (good to 0.1 ppm, far below the model's own error).
+pub const fn turn_permille(rate_mdps: i64) -> i64 {
+    div_round(
+        rate_mdps * 355 * WHEEL_BASE_MM,
+        113 * 360 * WHEEL_FULL_SPEED_MM_S,
+    )
+}
+
+// The seed route's numbers, checked at compile time (see the module doc).
+const _: () = assert!(forward_permille(86) == 287);
+const _: () = assert!(turn_permille(31_500) == 92);
+const _: () = assert!(turn_permille(-31_500) == -92);
+const _: () = assert!(forward_permille(300) == 1000);
+
+/// `n / d` rounded to nearest, halves away from zero; `d > 0`.
+const fn div_round(n: i64, d: i64) -> i64 {
+    if n >= 0 {
+        (n + d / 2) / d
+    } else {
+        (n - d / 2) / d
+    }
+}
+
+/// One leg of the route.
+#[derive(Clone, Copy, defmt::Format)]
+pub enum Leg {
+    /// Turn on the spot by `mdeg` millidegrees (positive clockwise) at `rate_mdps`
+    /// (magnitude), ended by the integrated gyro.
+    Turn {
+        /// Angle to turn, millidegrees.
+        mdeg: i64,
+        /// Turn rate, millidegrees per second.
+        rate_mdps: i64,
+    },
+    /// Drive straight at `speed_mm_s` for `time`, open loop.
+    Drive {
+        /// How long to drive.
+        time: Duration,
+        /// Forward speed, millimetres per second.
+        speed_mm_s: i64,
+    },
+}
+
+/// The seed's route (`host-sim/scenarios/seed-mat.toml`): three full turns at 31.5 deg/s
+/// with two 7 s drives at 86 mm/s between them, then stop.
+pub const SEED_ROUTE: [Leg; 5] = [
+    Leg::Turn {
+        mdeg: 360_000,
+        rate_mdps: 31_500,
+    },
+    Leg::Drive {
+        time: Duration::from_secs(7),
+        speed_mm_s: 86,
+    },
+    Leg::Turn {
+        mdeg: 360_000,
+        rate_mdps: 31_500,
+    },
+    Leg::Drive {
+        time: Duration::from_secs(7),
+        speed_mm_s: 86,
+    },
+    Leg::Turn {
+        mdeg: 360_000,
+        rate_mdps: 31_500,
+    },
+];
+
+/// Control period: 100 Hz, so a gyro-ended turn overshoots by at most about 0.3 degrees
+/// at 31.5 deg/s (plus the gyro's own 5 ms sample period).
+const CONTROL_PERIOD: Duration = Duration::from_millis(10);
+
+/// No SLAM report for this long (three ticks) and the motors coast.
+pub const SLAM_SILENCE: Duration = Duration::from_millis(300);
+
+/// Extra time a turn may take beyond twice its plan before the gyro is distrusted.
+const TURN_GRACE: Duration = Duration::from_secs(2);
+
+type DriveMotors =
+    Motors<PwmOutput<'static>, PwmOutput<'static>, PwmOutput<'static>, PwmOutput<'static>>;
+
+/// Owns the motors: waits for the gyro, drives [`SEED_ROUTE`], then coasts for good.
+#[embassy_executor::task]
+pub async fn motion_task(
+    pins: MotorPins,
+    inputs: &'static Inputs,
+    mut reports: ReportReceiver,
+) -> ! {
+    let Some(mut motors) = motors(pins) else {
+        defmt::error!("motion: motors did not start; staying put");
+        crate::sensors::park().await
+    };
+    defmt::info!(
+        "motion: waiting for the gyro calibration (keep still); route: forward {=i64} per mille, turn {=i64} per mille",
+        forward_permille(86),
+        turn_permille(31_500)
+    );
+    inputs.gyro_ready.wait().await;
+
+    let mut pilot = Pilot {
+        motors: &mut motors,
+        inputs,
+        reports: &mut reports,
+        last_report: Instant::now(),
+        halted: false,
+    };
+    for (i, leg) in SEED_ROUTE.iter().enumerate() {
+        defmt::info!("motion: leg {=usize}: {}", i, leg);
+        let finished = match *leg {
+            Leg::Turn { mdeg, rate_mdps } => pilot.turn(mdeg, rate_mdps).await,
+            Leg::Drive { time, speed_mm_s } => {
+                pilot.drive(time, speed_mm_s).await;
+                true
+            }
+        };
+        if !finished {
+            defmt::error!("motion: turn not finished in time; gyro distrusted, route abandoned");
+            break;
+        }
+    }
+    pilot.coast();
+    defmt::info!("motion: route done, motors coasting");
+    crate::sensors::park().await
+}
+
+/// Both PWM slices at 20 kHz, split into their four channels, coasting.
+fn motors(pins: MotorPins) -> Option<DriveMotors> {
+    let mut config = pwm::Config::default();
+    config.top = MOTOR_PWM_TOP;
+    // Compare 0 on both channels: both inputs low, the bridge coasts.
+    config.compare_a = 0;
+    config.compare_b = 0;
+    let left = Pwm::new_output_ab(
+        pins.left_slice,
+        pins.left_in1,
+        pins.left_in2,
+        config.clone(),
+    );
+    let right = Pwm::new_output_ab(pins.right_slice, pins.right_in1, pins.right_in2, config);
+    let (Some(left_in1), Some(left_in2)) = left.split() else {
+        return None;
+    };
+    let (Some(right_in1), Some(right_in2)) = right.split() else {
+        return None;
+    };
+    Motors::new(
+        HBridge::new(left_in1, left_in2),
+        HBridge::new(right_in1, right_in2),
+        MotorConfig::default(),
+    )
+    .ok()
+}
+
+/// The route follower's state between legs.
+struct Pilot<'a> {
+    motors: &'a mut DriveMotors,
+    inputs: &'static Inputs,
+    reports: &'a mut ReportReceiver,
+    /// When the SLAM loop last reported.
+    last_report: Instant,
+    /// Whether the motors are coasting because the SLAM loop went quiet.
+    halted: bool,
+}
+
+impl Pilot<'_> {
+    /// Turns by `mdeg` at `rate_mdps` until the gyro says so; `false` if it took too long.
+    async fn turn(&mut self, mdeg: i64, rate_mdps: i64) -> bool {
+        let direction = if mdeg >= 0 { 1 } else { -1 };
+        let command = turn_permille(rate_mdps.abs() * direction);
+        let planned_ms = mdeg.abs() * 1000 / rate_mdps.abs().max(1);
+        let limit =
+            Duration::from_millis(u64::try_from(planned_ms * 2).unwrap_or(u64::MAX)) + TURN_GRACE;
+        let start_yaw = self.inputs.yaw.yaw_mdeg();
+        let started = Instant::now();
+        let mut ticker = Ticker::every(CONTROL_PERIOD);
+        loop {
+            let turned = (self.inputs.yaw.yaw_mdeg() - start_yaw) * direction;
+            if turned >= mdeg.abs() {
+                self.coast();
+                return true;
+            }
+            if started.elapsed() > limit {
+                self.coast();
+                return false;
+            }
+            self.command(0, command);
+            ticker.next().await;
+        }
+    }
+
+    /// Drives at `speed_mm_s` for `time` of running (halts do not count).
+    async fn drive(&mut self, time: Duration, speed_mm_s: i64) {
+        let command = forward_permille(speed_mm_s);
+        let mut driven = Duration::from_ticks(0);
+        let mut ticker = Ticker::every(CONTROL_PERIOD);
+        let mut previous = Instant::now();
+        while driven < time {
+            self.command(command, 0);
+            let was_running = !self.halted;
+            ticker.next().await;
+            let now = Instant::now();
+            if was_running {
+                driven += now.saturating_duration_since(previous);
+            }
+            previous = now;
+        }
+        self.coast();
+    }
+
+    /// Applies `forward`/`turn` (per mille) unless the SLAM loop has gone quiet, in which
+    /// case the motors coast until it reports again.
+    fn command(&mut self, forward: i64, turn: i64) {
+        if self.reports.try_changed().is_some() {
+            self.last_report = Instant::now();
+        }
+        let silent = self.last_report.elapsed() > SLAM_SILENCE;
+        if silent {
+            if !self.halted {
+                defmt::warn!("motion: SLAM reports stopped; motors coasting");
+                HEALTH.motion_halts.bump();
+                self.halted = true;
+            }
+            self.coast();
+            return;
+        }
+        if self.halted {
+            defmt::info!("motion: SLAM reports back; resuming");
+            self.halted = false;
+        }
+        let forward = PerMille::saturating(i32::try_from(forward).unwrap_or(0));
+        let turn = PerMille::saturating(i32::try_from(turn).unwrap_or(0));
+        let result: Result<_, drivers::motors::Error<PwmError>> = self.motors.drive(forward, turn);
+        if result.is_err() {
+            HEALTH.motor_errors.bump();
+        }
+    }
+
+    /// Both motors coast.
+    fn coast(&mut self) {
+        if self.motors.stop().is_err() {
+            HEALTH.motor_errors.bump();
+        }
+    }
+}
