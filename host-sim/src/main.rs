@@ -29,6 +29,15 @@ const USAGE: &str = "usage:
   host-sim serve <scenario.toml> [--seed N]     (JSON lines on stdin/stdout, for the emulator)
   host-sim bench [<scenario.toml>]";
 
+/// `println!` that does not panic when stdout is gone (a closed pipe): output is best effort,
+/// the exit code still tells.
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($arg)*);
+    }};
+}
+
 /// A failure and the exit code it earns.
 struct Failure(u8, String);
 
@@ -40,7 +49,7 @@ fn main() -> ExitCode {
         Some("serve") => cmd_serve(&args[1..]),
         Some("bench") => cmd_bench(&args[1..]),
         Some("-h" | "--help") => {
-            println!("{USAGE}");
+            say!("{USAGE}");
             Ok(())
         }
         _ => Err(Failure(2, USAGE.to_string())),
@@ -119,7 +128,7 @@ fn cmd_run(args: &[String]) -> Result<(), Failure> {
     }
     if args.json {
         let json = serde_json::to_string(&output.figures).map_err(|e| Failure(1, e.to_string()))?;
-        println!("{json}");
+        say!("{json}");
     } else {
         print_summary(&scenario.name, args.pose, seed, &output.figures);
     }
@@ -129,7 +138,7 @@ fn cmd_run(args: &[String]) -> Result<(), Failure> {
         let stem = format!("{}-{}", scenario.name, args.pose.name());
         let (map, chart) = write_pictures(&output.record, &dir, &stem)?;
         if !args.json {
-            println!("pictures: {} {}", map.display(), chart.display());
+            say!("pictures: {} {}", map.display(), chart.display());
         }
     }
     Ok(())
@@ -266,11 +275,11 @@ fn cmd_view(args: &[String]) -> Result<(), Failure> {
     }
     if args.json {
         let json = serde_json::to_string(&summary).map_err(|e| Failure(1, e.to_string()))?;
-        println!("{json}");
+        say!("{json}");
     } else {
-        println!("{summary}");
+        say!("{summary}");
         if recording.decoder.has_partial_frame() {
-            println!("the stream ends inside a frame (cut short)");
+            say!("the stream ends inside a frame (cut short)");
         }
     }
     if let Some(dir) = &args.out {
@@ -286,33 +295,37 @@ fn cmd_view(args: &[String]) -> Result<(), Failure> {
         let record = recording.recorder.record(&stem);
         let (map, chart) = write_pictures(&record, dir, &stem)?;
         if !args.json {
-            println!("pictures: {} {}", map.display(), chart.display());
+            say!("pictures: {} {}", map.display(), chart.display());
         }
     }
     Ok(())
 }
 
 fn print_summary(name: &str, mode: PoseMode, seed: u64, f: &Figures) {
-    println!(
+    say!(
         "{name}: pose from {}, seed {seed}: {} ticks, {:.1} s",
         mode.name(),
         f.ticks,
         f.duration_s
     );
-    println!(
+    say!(
         "free {}  occupied {}  out of place {}  known {:.1} %",
-        f.free, f.occupied, f.out_of_place, f.known_pct
+        f.free,
+        f.occupied,
+        f.out_of_place,
+        f.known_pct
     );
     match f.first_fix_s {
-        Some(t) => println!(
+        Some(t) => say!(
             "fixes taken {} (first at {t:.1} s, {} rejected); after the first fix: error <= {:.1} cm, heading <= {:.1} deg",
             f.fixes, f.fixes_rejected, f.max_error_after_first_fix_cm, f.max_heading_error_after_first_fix_deg
         ),
-        None => println!("fixes taken 0"),
+        None => say!("fixes taken 0"),
     }
-    println!(
+    say!(
         "final pose error {:.1} cm, heading error {:.1} deg",
-        f.final_error_cm, f.final_heading_error_deg
+        f.final_error_cm,
+        f.final_heading_error_deg
     );
 }
 
@@ -378,11 +391,12 @@ fn cmd_bench(args: &[String]) -> Result<(), Failure> {
     }
     let steps = (replays * frames.len()) as f64;
     let ns_per_step = started.elapsed().as_secs_f64() * 1e9 / steps.max(1.0);
-    println!("host-sim bench on {} ({} runs, tags):", scenario.name, runs);
-    println!("  simulated seconds per wall second: {ratio:.0} (target >= 2000)");
-    println!(
+    say!("host-sim bench on {} ({} runs, tags):", scenario.name, runs);
+    say!("  simulated seconds per wall second: {ratio:.0} (target >= 2000)");
+    say!(
         "  host ns per step: {ns_per_step:.0} ({} steps, {} fixes)",
-        steps, fixes
+        steps,
+        fixes
     );
     Ok(())
 }
