@@ -108,6 +108,10 @@ impl Angle {
             vx <<= -shift;
             vy <<= -shift;
         }
+        // Both now fit 30 bits, and the CORDIC's gain (1.65) keeps them inside 31: the loop
+        // runs in 32-bit registers, where the M0+ shifts in one instruction (a 64-bit
+        // variable shift is a library call there).
+        let (mut vx, mut vy) = (vx as i32, vy as i32);
         // Rotate into the right half plane first.
         let mut acc: u32 = 0;
         if vx < 0 {

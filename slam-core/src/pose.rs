@@ -69,19 +69,28 @@ pub(crate) fn hypot(x: i64, y: i64) -> u64 {
 }
 
 /// Integer square root, rounded down.
+///
+/// Bit by bit (two result bits' worth of shifts and one compare per step), with no
+/// division: the M0+ has no 64-bit divide, and a library one costs hundreds of cycles.
 pub(crate) fn isqrt(n: u64) -> u64 {
-    if n < 2 {
-        return n;
-    }
-    // Newton's method from an over-estimate converges downwards.
-    let mut x = 1u64 << ((64 - n.leading_zeros()).div_ceil(2));
-    loop {
-        let y = (x + n / x) / 2;
-        if y >= x {
-            return x;
+    let mut rem = n;
+    let mut root = 0u64;
+    // The largest power of four not above n.
+    let mut bit = if n == 0 {
+        0
+    } else {
+        1u64 << ((63 - n.leading_zeros()) & !1)
+    };
+    while bit != 0 {
+        if rem >= root + bit {
+            rem -= root + bit;
+            root = (root >> 1) + bit;
+        } else {
+            root >>= 1;
         }
-        x = y;
+        bit >>= 2;
     }
+    root
 }
 
 #[cfg(test)]

@@ -226,7 +226,14 @@ pub fn best_pair<'a>(
 
 /// Whether a fix is close enough to the prediction to believe.
 pub fn within_gate(fix: &Pose, predicted: &Pose, config: &FixConfig) -> bool {
-    let far = fix.distance_um(predicted) > config.gate_position_mm.saturating_mul(UM_PER_MM as u32);
+    // Squared distances: no square root on the M0+ for a yes/no answer.
+    let (dx, dy) = (
+        fix.x_um as i64 - predicted.x_um as i64,
+        fix.y_um as i64 - predicted.y_um as i64,
+    );
+    let gate_um = config.gate_position_mm as u64 * UM_PER_MM as u64;
+    let far = (dx.unsigned_abs() as u128).pow(2) + (dy.unsigned_abs() as u128).pow(2)
+        > (gate_um as u128).pow(2);
     let turned = fix.heading.diff(predicted.heading).unsigned_abs()
         > Angle::from_millidegrees(config.gate_heading_mdeg as i64).bits();
     !far && !turned
