@@ -111,7 +111,15 @@ mod tests {
             1 << 40,
             (1 << 40) + 1,
             u32::MAX as u64,
+            (1 << 62) - 1,
+            u64::MAX - 1,
+            u64::MAX,
         ] {
+            let r = isqrt(n) as u128;
+            let n = n as u128;
+            assert!(r * r <= n && (r + 1) * (r + 1) > n, "isqrt({n}) = {r}");
+        }
+        for n in 0..100_000u64 {
             let r = isqrt(n);
             assert!(r * r <= n && (r + 1) * (r + 1) > n, "isqrt({n}) = {r}");
         }
