@@ -6,9 +6,9 @@
 //! pin list does not type-check in the task that builds the bus).
 
 use embassy_rp::peripherals::{
-    CORE1, DMA_CH0, DMA_CH1, DMA_CH2, I2C0, I2C1, PIN_0, PIN_1, PIN_10, PIN_11, PIN_12, PIN_13,
-    PIN_16, PIN_17, PIN_18, PIN_19, PIN_2, PIN_25, PIN_3, PIN_4, PIN_5, PIN_6, PIN_7, PIN_8,
-    PWM_SLICE5, PWM_SLICE6, SPI0, UART0, UART1, WATCHDOG,
+    CORE1, DMA_CH0, DMA_CH1, DMA_CH2, FLASH, I2C0, I2C1, PIN_0, PIN_1, PIN_10, PIN_11, PIN_12,
+    PIN_13, PIN_16, PIN_17, PIN_18, PIN_19, PIN_2, PIN_25, PIN_3, PIN_4, PIN_5, PIN_6, PIN_7,
+    PIN_8, PWM_SLICE5, PWM_SLICE6, SPI0, UART0, UART1, USB, WATCHDOG,
 };
 use embassy_rp::{Peri, Peripherals};
 
@@ -97,6 +97,15 @@ pub struct TelemetryLinkPins {
     pub tx_dma: Peri<'static, DMA_CH2>,
 }
 
+/// The USB device port (the Pico's micro-USB socket): telemetry as a CDC ACM serial port.
+pub struct UsbLinkPins {
+    /// The USB controller. D+/D- are dedicated pins, not GPIOs.
+    pub usb: Peri<'static, USB>,
+    /// The flash chip, read once at boot for its 64-bit unique ID: the RP2040 has none of
+    /// its own, and the ID becomes the USB serial number.
+    pub flash: Peri<'static, FLASH>,
+}
+
 /// DRV8833 dual H-bridge, driven by two PWM slices (one per motor, inputs IN1/IN2 on the
 /// slice's A/B channels). Both channels low is coast.
 pub struct MotorPins {
@@ -126,6 +135,8 @@ pub struct Board {
     pub camera: CameraLinkPins,
     /// Telemetry: UART1 TX on GP8, DMA channel 2.
     pub telemetry: TelemetryLinkPins,
+    /// USB device port: telemetry again, as a CDC ACM serial port.
+    pub usb: UsbLinkPins,
     /// DRV8833 motor driver: PWM5 on GP10/GP11, PWM6 on GP12/GP13.
     pub motors: MotorPins,
     /// GP25: the Pico's green status LED (active high).
@@ -169,6 +180,10 @@ impl Board {
                 uart: p.UART1,
                 tx: p.PIN_8,
                 tx_dma: p.DMA_CH2,
+            },
+            usb: UsbLinkPins {
+                usb: p.USB,
+                flash: p.FLASH,
             },
             motors: MotorPins {
                 left_slice: p.PWM_SLICE5,

@@ -73,6 +73,14 @@ pub struct HealthCounters {
     pub telemetry_dropped: Counter,
     /// Telemetry frames that could not be encoded or written.
     pub telemetry_errors: Counter,
+    /// Telemetry frames written to the USB serial port.
+    pub usb_frames_sent: Counter,
+    /// Telemetry frames not sent over USB because no host had the device configured (or
+    /// the bus was suspended): every frame, while the robot is not plugged into a PC.
+    pub usb_no_host: Counter,
+    /// Telemetry frames not sent over USB although a host was there: it was not reading
+    /// (port not open), so the USB queue was full, or the frames went stale waiting.
+    pub usb_dropped: Counter,
     /// Times the motion task stopped the motors because SLAM reports stopped coming.
     pub motion_halts: Counter,
     /// PWM errors setting the motor duty.
@@ -100,6 +108,9 @@ impl HealthCounters {
             camera_tags_dropped: Counter::new(),
             telemetry_dropped: Counter::new(),
             telemetry_errors: Counter::new(),
+            usb_frames_sent: Counter::new(),
+            usb_no_host: Counter::new(),
+            usb_dropped: Counter::new(),
             motion_halts: Counter::new(),
             motor_errors: Counter::new(),
         }
@@ -123,7 +134,7 @@ impl HealthCounters {
     /// One defmt line with the counters the wire does not carry.
     pub fn log_firmware_detail(&self) {
         defmt::info!(
-            "health: init fail flow={=u32} gyro={=u32} | gyro implausible={=u32} recal={=u32} | camera ok={=u32} tags dropped={=u32} | telemetry dropped={=u32} err={=u32} | motion halts={=u32} motor err={=u32}",
+            "health: init fail flow={=u32} gyro={=u32} | gyro implausible={=u32} recal={=u32} | camera ok={=u32} tags dropped={=u32} | telemetry dropped={=u32} err={=u32} | usb sent={=u32} no host={=u32} dropped={=u32} | motion halts={=u32} motor err={=u32}",
             self.flow_init_failures.get(),
             self.gyro_init_failures.get(),
             self.gyro_implausible.get(),
@@ -132,6 +143,9 @@ impl HealthCounters {
             self.camera_tags_dropped.get(),
             self.telemetry_dropped.get(),
             self.telemetry_errors.get(),
+            self.usb_frames_sent.get(),
+            self.usb_no_host.get(),
+            self.usb_dropped.get(),
             self.motion_halts.get(),
             self.motor_errors.get(),
         );

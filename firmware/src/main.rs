@@ -4,7 +4,8 @@
 //! ([`board::Board`]) and spawns one task per part. The tasks own their hardware and
 //! talk through [`inputs`] (sensors to the SLAM tick, gyro yaw to motion),
 //! [`slam_task::REPORTS`] (the tick's heartbeat to motion),
-//! [`slam_task::TELEMETRY_FRAMES`] (encoded frames to telemetry) and [`health::HEALTH`]
+//! [`slam_task::TELEMETRY_FRAMES`] (encoded frames to telemetry),
+//! [`usb::USB_FRAMES`] (telemetry's copies for the USB serial port) and [`health::HEALTH`]
 //! (every task's fault counters).
 //!
 //! Boot: the robot must stand still for about 1.1 s after reset while the IMU task
@@ -15,7 +16,7 @@
 #![warn(missing_docs)]
 
 use embassy_executor::Spawner;
-use embassy_rp::peripherals::{DMA_CH0, DMA_CH1, DMA_CH2, I2C0, I2C1, UART0};
+use embassy_rp::peripherals::{DMA_CH0, DMA_CH1, DMA_CH2, I2C0, I2C1, UART0, USB};
 use embassy_rp::{bind_interrupts, dma, i2c, uart};
 use {defmt_rtt as _, panic_probe as _};
 
@@ -27,6 +28,7 @@ mod sensors;
 mod slam_task;
 mod status_led;
 mod telemetry;
+mod usb;
 
 bind_interrupts!(
     /// Every interrupt the firmware uses, and the driver that handles it.
@@ -35,6 +37,7 @@ bind_interrupts!(
         I2C1_IRQ => i2c::InterruptHandler<I2C1>;
         DMA_IRQ_0 => dma::InterruptHandler<DMA_CH0>, dma::InterruptHandler<DMA_CH1>, dma::InterruptHandler<DMA_CH2>;
         UART0_IRQ => uart::BufferedInterruptHandler<UART0>;
+        USBCTRL_IRQ => embassy_rp::usb::InterruptHandler<USB>;
     }
 );
 
@@ -47,6 +50,8 @@ async fn main(spawner: Spawner) {
         defmt::panic!("no report receiver left for motion");
     };
     let inputs = &inputs::INPUTS;
+    // First, while only core 0 runs: it reads the flash chip's ID for the serial number.
+    let (usb_device, usb_serial) = usb::build(board.usb, Irqs);
 
     spawner.spawn(defmt::unwrap!(slam_task::slam_task(board.watchdog, inputs)));
     #[cfg(feature = "vl53l5cx")]
@@ -77,6 +82,8 @@ async fn main(spawner: Spawner) {
         board.telemetry,
         Irqs
     )));
+    spawner.spawn(defmt::unwrap!(usb::usb_device_task(usb_device)));
+    spawner.spawn(defmt::unwrap!(usb::usb_telemetry_task(usb_serial)));
     spawner.spawn(defmt::unwrap!(motion::motion_task(
         board.motors,
         inputs,

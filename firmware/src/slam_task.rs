@@ -59,7 +59,9 @@ pub const TELEMETRY_SCHEDULE: Schedule = Schedule {
 /// Frames queued for the link: one tick's worth (at most five) with room to spare.
 pub const TELEMETRY_QUEUE: usize = 8;
 
-/// One encoded telemetry frame, delimiter included.
+/// One encoded telemetry frame, delimiter included. `Clone` so the telemetry task can hand
+/// a copy to the USB queue as well as write it to the UART.
+#[derive(Clone)]
 pub struct TelemetryFrame {
     /// Bytes used in `bytes`.
     len: usize,
