@@ -51,13 +51,73 @@ fn cargo() -> Command {
 }
 
 /// Every test the project has: the host crates, then the firmware build with its
-/// flash and RAM budget check.
+/// flash and RAM budget check. Ends with one line totalling the tests, so a reader (or
+/// CI) does not have to add up cargo's per-binary lines.
 fn test(_args: &[String]) -> Result<(), String> {
-    run_cmd(cargo().args(["test", "--workspace", "--release"]))?;
-    firmware::run(&[])
+    let (passed, failed) = cargo_test(&["test", "--workspace", "--release"])?;
+    firmware::run(&[])?;
+    println!("tests: {passed} passed, {failed} failed");
+    Ok(())
+}
+
+/// Runs `cargo <args>`, echoing its output, and adds up its `test result:` lines.
+fn cargo_test(args: &[&str]) -> Result<(u64, u64), String> {
+    use std::io::{BufRead, BufReader};
+    use std::process::Stdio;
+    let mut cmd = cargo();
+    cmd.args(args)
+        .current_dir(workspace_root())
+        .stdout(Stdio::piped());
+    eprintln!("+ {cmd:?}");
+    let mut child = cmd
+        .spawn()
+        .map_err(|e| format!("cannot start cargo: {e}"))?;
+    let (mut passed, mut failed) = (0, 0);
+    if let Some(out) = child.stdout.take() {
+        for line in BufReader::new(out).lines() {
+            let line = line.map_err(|e| format!("reading cargo's output: {e}"))?;
+            println!("{line}");
+            if let Some(rest) = line.strip_prefix("test result: ") {
+                passed += count_before(rest, " passed");
+                failed += count_before(rest, " failed");
+            }
+        }
+    }
+    let status = child
+        .wait()
+        .map_err(|e| format!("waiting for cargo: {e}"))?;
+    if !status.success() {
+        return Err(format!(
+            "cargo test failed: {status} ({passed} passed, {failed} failed)"
+        ));
+    }
+    Ok((passed, failed))
+}
+
+/// The number just before `label` in a line like `ok. 12 passed; 0 failed; ...`.
+fn count_before(line: &str, label: &str) -> u64 {
+    line.find(label)
+        .and_then(|end| line[..end].rsplit([' ', '.']).next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or(0)
 }
 
 /// Host benchmarks: simulated seconds per wall second and nanoseconds per `step`.
 fn bench(_args: &[String]) -> Result<(), String> {
     run_cmd(cargo().args(["run", "--release", "-p", "host-sim", "--", "bench"]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::count_before;
+
+    #[test]
+    fn reads_cargo_result_lines() {
+        let line =
+            "ok. 12 passed; 3 failed; 0 ignored; 0 measured; 0 filtered out; finished in 0.01s";
+        assert_eq!(count_before(line, " passed"), 12);
+        assert_eq!(count_before(line, " failed"), 3);
+        assert_eq!(count_before("FAILED. 0 passed; 1 failed;", " failed"), 1);
+        assert_eq!(count_before("nothing here", " passed"), 0);
+    }
 }
