@@ -12,7 +12,7 @@ use std::os::fd::AsFd;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
-use crate::{run_cmd, workspace_root};
+use crate::{run_cmd, run_in, workspace_root};
 
 const USAGE: &str = "usage: cargo xtask emulate [SCENARIO] [--seconds N] [--seed N] [--pose MODE] \
 [--fault NAME@T+S]... [--no-world] [--max-wall S] [--json]
@@ -225,19 +225,6 @@ fn capture(dir: &Path, cmd: &mut Command) -> Result<String, String> {
                 format!("\n{stdout}")
             }
         ))
-    }
-}
-
-fn run_in(dir: &Path, cmd: &mut Command) -> Result<(), String> {
-    eprintln!("+ (cd {}) {:?}", dir.display(), cmd);
-    let status = cmd
-        .current_dir(dir)
-        .status()
-        .map_err(|e| format!("cannot start {:?}: {e}", cmd.get_program()))?;
-    if status.success() {
-        Ok(())
-    } else {
-        Err(format!("{:?} failed: {status}", cmd.get_program()))
     }
 }
 

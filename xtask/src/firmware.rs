@@ -46,7 +46,7 @@ use object::elf;
 use object::read::elf::{ElfFile32, FileHeader, ProgramHeader, SectionHeader, Sym};
 use object::Endianness;
 
-use crate::workspace_root;
+use crate::{run_in, workspace_root};
 
 /// The firmware's target triple.
 const TARGET: &str = "thumbv6m-none-eabi";
@@ -363,22 +363,6 @@ fn rustup_add_target() -> bool {
                 return false;
             }
         }
-    }
-}
-
-/// Runs a command in `dir` and fails if it does. (`crate::run_cmd` always runs from the
-/// workspace root; the firmware build must run from `firmware/` so cargo reads its
-/// `.cargo/config.toml`.)
-fn run_in(dir: &Path, cmd: &mut Command) -> Result<(), String> {
-    eprintln!("+ (cd {}) {:?}", dir.display(), cmd);
-    let status = cmd
-        .current_dir(dir)
-        .status()
-        .map_err(|e| format!("cannot start {:?}: {e}", cmd.get_program()))?;
-    if status.success() {
-        Ok(())
-    } else {
-        Err(format!("{:?} failed: {status}", cmd.get_program()))
     }
 }
 

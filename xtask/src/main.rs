@@ -28,9 +28,15 @@ fn main() -> ExitCode {
 
 /// Runs a command from the workspace root and fails if it does.
 pub fn run_cmd(cmd: &mut Command) -> Result<(), String> {
-    eprintln!("+ {:?}", cmd);
+    run_in(&workspace_root(), cmd)
+}
+
+/// Runs a command in `dir` and fails if it does. (The firmware builds from `firmware/`, so
+/// that cargo reads that crate's own `.cargo/config.toml`.)
+pub fn run_in(dir: &std::path::Path, cmd: &mut Command) -> Result<(), String> {
+    eprintln!("+ (cd {}) {:?}", dir.display(), cmd);
     let status = cmd
-        .current_dir(workspace_root())
+        .current_dir(dir)
         .status()
         .map_err(|e| format!("cannot start {:?}: {e}", cmd.get_program()))?;
     if status.success() {
