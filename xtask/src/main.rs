@@ -108,9 +108,51 @@ fn count_before(line: &str, label: &str) -> u64 {
         .unwrap_or(0)
 }
 
-/// Host benchmarks: simulated seconds per wall second and nanoseconds per `step`.
-fn bench(_args: &[String]) -> Result<(), String> {
-    run_cmd(cargo().args(["run", "--release", "-p", "host-sim", "--", "bench"]))
+/// The project's speed figures: the simulator's simulated seconds per wall second and
+/// host nanoseconds per `step`, then the real firmware's Cortex-M0+ cycles per `step` on
+/// the emulator over the seed route (`--host-only` skips the emulator).
+fn bench(args: &[String]) -> Result<(), String> {
+    run_cmd(cargo().args(["run", "--release", "-p", "host-sim", "--", "bench"]))?;
+    if args.iter().any(|a| a == "--host-only") {
+        return Ok(());
+    }
+    let exe = std::env::current_exe().map_err(|e| format!("cannot find xtask itself: {e}"))?;
+    let out = Command::new(exe)
+        .args(["emulate", "--json", "--seconds", "50"])
+        .current_dir(workspace_root())
+        .stderr(std::process::Stdio::inherit())
+        .output()
+        .map_err(|e| format!("cannot run the emulator: {e}"))?;
+    if !out.status.success() {
+        return Err(format!("cargo xtask emulate failed: {}", out.status));
+    }
+    let figures: serde_json::Value = serde_json::from_slice(&out.stdout)
+        .map_err(|e| format!("the emulator's figures are not JSON: {e}"))?;
+    let e = &figures["emulator"];
+    let n = |key: &str| {
+        e[key]
+            .as_f64()
+            .map_or("?".to_string(), |v| format!("{v:.0}"))
+    };
+    println!("firmware on the emulated RP2040 (seed route, 50 simulated s):");
+    println!(
+        "  M0+ cycles per step: min {} / median {} / max {} (target: map and pose update <= 20000)",
+        n("step_cycles_min"),
+        n("step_cycles_median"),
+        n("step_cycles_max")
+    );
+    println!(
+        "  ticks {}, overruns {}, CPU load {} %, {} simulated s per wall s",
+        n("ticks_seen"),
+        n("overruns"),
+        e["cpu_load_pct"]
+            .as_f64()
+            .map_or("?".to_string(), |v| format!("{v:.1}")),
+        e["sim_per_wall"]
+            .as_f64()
+            .map_or("?".to_string(), |v| format!("{v:.1}"))
+    );
+    Ok(())
 }
 
 #[cfg(test)]
