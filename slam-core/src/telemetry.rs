@@ -57,7 +57,7 @@
 //!
 //! [postcard 1.x]: https://postcard.jamesmunns.com/wire-format
 
-use crate::framing::{cobs_decode_in_place, cobs_encode, cobs_len};
+use crate::framing::{cobs_decode_in_place, cobs_encode, cobs_len, Collected, FrameCollector};
 use crate::grid::{Evidence, GridMap, LogOdds, Occupancy};
 use crate::pose::Pose;
 use crate::slam::{Counters, Staleness, StepReport};
@@ -696,9 +696,7 @@ impl DecoderStats {
 /// starts over at the next `0x00`. Empty frames are skipped silently.
 #[derive(Clone, Debug)]
 pub struct StreamDecoder {
-    buf: [u8; MAX_FRAME_LEN - 1],
-    len: usize,
-    overflowed: bool,
+    frames: FrameCollector<{ MAX_FRAME_LEN - 1 }>,
     stats: DecoderStats,
 }
 
@@ -712,9 +710,7 @@ impl StreamDecoder {
     /// A decoder waiting for its first frame.
     pub const fn new() -> StreamDecoder {
         StreamDecoder {
-            buf: [0; MAX_FRAME_LEN - 1],
-            len: 0,
-            overflowed: false,
+            frames: FrameCollector::new(),
             stats: DecoderStats {
                 frames_ok: 0,
                 overlong: 0,
@@ -735,29 +731,15 @@ impl StreamDecoder {
     /// Whether bytes of an unfinished frame are waiting for their delimiter (at the end of
     /// a recording: a frame cut short).
     pub fn has_partial_frame(&self) -> bool {
-        self.len > 0 || self.overflowed
+        self.frames.has_partial()
     }
 
     /// Feeds one byte: `Some` when it ends a frame (a message, or why the frame was
     /// dropped, already counted), `None` otherwise.
     pub fn push(&mut self, byte: u8) -> Option<Result<Message, FrameError>> {
-        if byte != 0 {
-            match self.buf.get_mut(self.len) {
-                Some(slot) => {
-                    *slot = byte;
-                    self.len += 1;
-                }
-                None => self.overflowed = true,
-            }
-            return None;
-        }
-        let len = core::mem::replace(&mut self.len, 0);
-        let result = if core::mem::replace(&mut self.overflowed, false) {
-            Err(FrameError::Overlong)
-        } else if len == 0 {
-            return None;
-        } else {
-            Self::parse(self.buf.get_mut(..len).unwrap_or(&mut []))
+        let result = match self.frames.push(byte)? {
+            Collected::Overlong => Err(FrameError::Overlong),
+            Collected::Frame(encoded) => Self::parse(encoded),
         };
         match result {
             Ok(_) => self.stats.frames_ok = self.stats.frames_ok.wrapping_add(1),

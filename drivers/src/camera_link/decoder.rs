@@ -1,6 +1,7 @@
 //! Streaming decoder: UART bytes in, frames out.
 
 use super::{cobs, FrameRepr, Packet, WireError, MAX_ENCODED_LEN, MAX_FRAME_LEN};
+use slam_core::framing::{Collected, FrameCollector};
 
 /// Frames rejected by kind, and frames accepted. Counters wrap.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -62,9 +63,7 @@ impl DecoderStats {
 /// sender may prefix a delimiter to flush a receiver's partial frame.
 #[derive(Debug, Clone)]
 pub struct FrameDecoder {
-    buf: [u8; MAX_ENCODED_LEN],
-    len: usize,
-    overflowed: bool,
+    frames: FrameCollector<MAX_ENCODED_LEN>,
     stats: DecoderStats,
 }
 
@@ -78,9 +77,7 @@ impl FrameDecoder {
     /// An empty decoder.
     pub const fn new() -> Self {
         FrameDecoder {
-            buf: [0; MAX_ENCODED_LEN],
-            len: 0,
-            overflowed: false,
+            frames: FrameCollector::new(),
             stats: DecoderStats {
                 frames_ok: 0,
                 overlong: 0,
@@ -102,25 +99,14 @@ impl FrameDecoder {
 
     /// Feed one byte; returns a frame when this byte completes a good one.
     pub fn push(&mut self, byte: u8) -> Option<FrameRepr> {
-        if byte != 0 {
-            match self.buf.get_mut(self.len) {
-                Some(slot) => {
-                    *slot = byte;
-                    self.len += 1;
-                }
-                None => self.overflowed = true,
+        let encoded = match self.frames.push(byte)? {
+            Collected::Overlong => {
+                self.stats.overlong = self.stats.overlong.wrapping_add(1);
+                return None;
             }
-            return None;
-        }
-        let len = core::mem::replace(&mut self.len, 0);
-        if core::mem::replace(&mut self.overflowed, false) {
-            self.stats.overlong = self.stats.overlong.wrapping_add(1);
-            return None;
-        }
-        if len == 0 {
-            return None;
-        }
-        match Self::decode(self.buf.get(..len).unwrap_or(&[])) {
+            Collected::Frame(encoded) => encoded,
+        };
+        match Self::decode(encoded) {
             Ok(frame) => {
                 self.stats.frames_ok = self.stats.frames_ok.wrapping_add(1);
                 Some(frame)
