@@ -95,13 +95,18 @@ function parseArgs(argv) {
 
 const FAULT_KINDS = ['depth-nack', 'camera-garbage', 'flow-no-surface', 'gyro-nack'];
 
-/// `NAME@T+S`: fault NAME from S simulated seconds after reset on (`NAME@S` too).
+/// `NAME@T+S`: fault NAME from S simulated seconds after reset on (`NAME@S` too);
+/// `NAME@T+S/D`: the same, ending D seconds later (the sensor recovers).
 function parseFault(text) {
-  const m = /^([a-z-]+)@(?:T\+)?([0-9.]+)s?$/.exec(text);
+  const m = /^([a-z-]+)@(?:T\+)?([0-9.]+)s?(?:\/([0-9.]+)s?)?$/.exec(text);
   if (!m || !FAULT_KINDS.includes(m[1])) {
-    throw new Error(`bad --fault ${text}: want one of ${FAULT_KINDS.join(', ')} as NAME@T+SECONDS`);
+    throw new Error(
+      `bad --fault ${text}: want one of ${FAULT_KINDS.join(', ')} as NAME@T+SECONDS[/DURATION]`,
+    );
   }
-  return { kind: m[1], at_s: Number(m[2]), events: 0 };
+  const at_s = Number(m[2]);
+  const until_s = m[3] === undefined ? Infinity : at_s + Number(m[3]);
+  return { kind: m[1], at_s, until_s, events: 0 };
 }
 
 // ---------------------------------------------------------------------------------------
@@ -277,6 +282,7 @@ function selfTest() {
   const built = cameraFrame(0x0102, [{ id: 5, cx_px: 160, distance_mm: 1500 }]);
   checks.push(['frame ends in one delimiter', built.indexOf(0) === built.length - 1]);
   checks.push(['fault parse', parseFault('depth-nack@T+3').at_s === 3]);
+  checks.push(['fault duration', parseFault('flow-no-surface@T+5/3').until_s === 8]);
   let ok = true;
   for (const [name, pass] of checks) {
     console.log(`${pass ? 'ok  ' : 'FAIL'} ${name}`);
@@ -412,7 +418,8 @@ function main() {
   // Scheduling helper: run `fn` `ns` nanoseconds of simulated time from now.
   const later = (ns, fn) => clock.createAlarm(fn).schedule(Math.max(0, ns));
   const now_s = () => clock.nanos / 1e9;
-  const faultOn = (kind) => args.faults.find((f) => f.kind === kind && now_s() >= f.at_s);
+  const faultOn = (kind) =>
+    args.faults.find((f) => f.kind === kind && now_s() >= f.at_s && now_s() < f.until_s);
 
   // ---- World
   let world;
@@ -738,7 +745,10 @@ function main() {
         ? { launch_acknowledged: core1.launched, words: core1.launch_words.length, runs: false, note: 'rp2040js emulates core 0 only; tasks on core 1 never run' }
         : { used: false },
     },
-    faults_injected: args.faults.map((f) => ({ fault: `${f.kind}@T+${f.at_s}`, events: f.events })),
+    faults_injected: args.faults.map((f) => ({
+      fault: `${f.kind}@T+${f.at_s}${Number.isFinite(f.until_s) ? `/${f.until_s - f.at_s}` : ''}`,
+      events: f.events,
+    })),
     last_logs: logs.lines.slice(-8),
     emulator_messages: [...emuMessages].slice(0, 20).map(([k, n]) => `${n}x ${k}`),
   };

@@ -56,14 +56,37 @@ fn cargo() -> Command {
     Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
 }
 
-/// Every test the project has: the host crates, then the firmware build with its
-/// flash and RAM budget check. Ends with one line totalling the tests, so a reader (or
-/// CI) does not have to add up cargo's per-binary lines.
+/// Every test the project has: the host crates, the firmware build with its flash and RAM
+/// budget check, and the firmware itself on the emulated RP2040. Ends with one line
+/// totalling the tests, so a reader (or CI) does not have to add up cargo's lines.
 fn test(_args: &[String]) -> Result<(), String> {
     let (passed, failed) = cargo_test(&["test", "--workspace", "--release"])?;
     firmware::run(&[])?;
+    let (emulated_passed, emulated_failed) = emulate::check_fault_run()?;
+    let (passed, failed) = (passed + emulated_passed, failed + emulated_failed);
     println!("tests: {passed} passed, {failed} failed");
+    if failed > 0 {
+        return Err(format!("{failed} emulator checks failed"));
+    }
     Ok(())
+}
+
+/// Runs `cargo xtask emulate --json` with `args` in a child and returns its figures.
+pub fn emulator_figures(args: &[&str]) -> Result<serde_json::Value, String> {
+    let exe = std::env::current_exe().map_err(|e| format!("cannot find xtask itself: {e}"))?;
+    let out = Command::new(exe)
+        .arg("emulate")
+        .arg("--json")
+        .args(args)
+        .current_dir(workspace_root())
+        .stderr(std::process::Stdio::inherit())
+        .output()
+        .map_err(|e| format!("cannot run the emulator: {e}"))?;
+    if !out.status.success() {
+        return Err(format!("cargo xtask emulate failed: {}", out.status));
+    }
+    serde_json::from_slice(&out.stdout)
+        .map_err(|e| format!("the emulator's figures are not JSON: {e}"))
 }
 
 /// Runs `cargo <args>`, echoing its output, and adds up its `test result:` lines.
@@ -116,18 +139,7 @@ fn bench(args: &[String]) -> Result<(), String> {
     if args.iter().any(|a| a == "--host-only") {
         return Ok(());
     }
-    let exe = std::env::current_exe().map_err(|e| format!("cannot find xtask itself: {e}"))?;
-    let out = Command::new(exe)
-        .args(["emulate", "--json", "--seconds", "50"])
-        .current_dir(workspace_root())
-        .stderr(std::process::Stdio::inherit())
-        .output()
-        .map_err(|e| format!("cannot run the emulator: {e}"))?;
-    if !out.status.success() {
-        return Err(format!("cargo xtask emulate failed: {}", out.status));
-    }
-    let figures: serde_json::Value = serde_json::from_slice(&out.stdout)
-        .map_err(|e| format!("the emulator's figures are not JSON: {e}"))?;
+    let figures = emulator_figures(&["--seconds", "50"])?;
     let e = &figures["emulator"];
     let n = |key: &str| {
         e[key]
