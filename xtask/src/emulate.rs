@@ -159,7 +159,13 @@ pub fn run(args: &[String]) -> Result<(), String> {
         .map_err(|e| format!("cannot create {}: {e}", out_dir.display()))?;
 
     if !harness_dir.join("node_modules/rp2040js").is_dir() {
-        run_in(&harness_dir, Command::new("npm").arg("ci"))?;
+        // npm reports on stdout, which must hold only the figures under --json.
+        run_in(
+            &harness_dir,
+            Command::new("npm")
+                .arg("ci")
+                .stdout(Stdio::from(stderr_fd()?)),
+        )?;
     }
 
     let release = root.join("firmware/target/thumbv6m-none-eabi/release");
@@ -252,16 +258,20 @@ pub fn run(args: &[String]) -> Result<(), String> {
 /// `cargo xtask firmware` (this very binary), its stdout redirected to stderr.
 fn firmware_quietly() -> Result<(), String> {
     let exe = std::env::current_exe().map_err(|e| format!("cannot find xtask itself: {e}"))?;
-    let stderr = std::io::stderr()
-        .as_fd()
-        .try_clone_to_owned()
-        .map_err(|e| format!("cannot duplicate stderr: {e}"))?;
     run_in(
         &workspace_root(),
         Command::new(exe)
             .arg("firmware")
-            .stdout(Stdio::from(stderr)),
+            .stdout(Stdio::from(stderr_fd()?)),
     )
+}
+
+/// A copy of this process's stderr, to send a child's stdout there.
+fn stderr_fd() -> Result<std::os::fd::OwnedFd, String> {
+    std::io::stderr()
+        .as_fd()
+        .try_clone_to_owned()
+        .map_err(|e| format!("cannot duplicate stderr: {e}"))
 }
 
 fn cargo() -> String {
