@@ -1,21 +1,9 @@
 //! The demo command line: figures as JSON, and clear refusals of bad input.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn seed_path() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/seed-mat.toml")
-}
-
-fn host_sim(args: &[&str]) -> Output {
-    match Command::new(env!("CARGO_BIN_EXE_host-sim"))
-        .args(args)
-        .output()
-    {
-        Ok(o) => o,
-        Err(e) => panic!("cannot start host-sim: {e}"),
-    }
-}
+use common::{host_sim, seed_path};
+use std::path::PathBuf;
 
 /// A scratch file holding `text`, unique to this test.
 fn scratch(name: &str, text: &str) -> PathBuf {

@@ -1,25 +1,13 @@
 //! The telemetry stream end to end: the simulator writes what the robot would send, the
 //! viewer reads it back and gets the run's own pose and map.
 
+mod common;
+
+use common::{host_sim, seed_path};
 use host_sim::run::{run, PoseMode};
 use host_sim::telemetry::decode_bytes;
 use host_sim::Scenario;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn seed_path() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/seed-mat.toml")
-}
-
-fn host_sim(args: &[&str]) -> Output {
-    match Command::new(env!("CARGO_BIN_EXE_host-sim"))
-        .args(args)
-        .output()
-    {
-        Ok(o) => o,
-        Err(e) => panic!("cannot start host-sim: {e}"),
-    }
-}
 
 /// A scratch directory unique to this test.
 fn scratch(name: &str) -> PathBuf {
