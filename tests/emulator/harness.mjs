@@ -20,6 +20,7 @@
 //
 // Usage: node harness.mjs --bin FW.bin --elf FW.elf --scenario FILE [--seconds N]
 //          [--seed N] [--host-sim BIN | --no-world] [--telemetry FILE] [--defmt FILE]
+//          [--truth FILE]
 //          [--fault NAME@T+S]... [--max-wall S] [--json] [--quiet]
 //        node harness.mjs --self-test
 
@@ -32,6 +33,7 @@ import { fileURLToPath } from 'node:url';
 // The package's `exports` map hides its subpaths, so import by path (EMULATOR.md).
 import { RP2040 } from './node_modules/rp2040js/dist/esm/rp2040.js';
 import { SimulationClock } from './node_modules/rp2040js/dist/esm/clock/simulation-clock.js';
+import { addCore1 } from './core1.mjs';
 
 const HERE = path.dirname(fileURLToPath(import.meta.url));
 const REPO = path.resolve(HERE, '..', '..');
@@ -56,6 +58,7 @@ function parseArgs(argv) {
     noWorld: false,
     telemetry: null,
     defmt: null,
+    truth: null,
     faults: [],
     maxWall: 0,
     json: false,
@@ -79,6 +82,7 @@ function parseArgs(argv) {
       case '--no-world': a.noWorld = true; break;
       case '--telemetry': a.telemetry = v(); break;
       case '--defmt': a.defmt = v(); break;
+      case '--truth': a.truth = v(); break;
       case '--defmt-print': a.defmtPrint = v(); break;
       case '--fault': a.faults.push(parseFault(v())); break;
       case '--max-wall': a.maxWall = Number(v()); break;
@@ -392,11 +396,14 @@ function main() {
   core.PC = rp.readUint32(VECTOR_TABLE + 4) & ~1;
   say(`loaded ${image.length} bytes; SP=0x${(core.SP >>> 0).toString(16)} PC=0x${core.PC.toString(16)}`);
 
-  // rp2040js logs SEV and does nothing else. On the Cortex-M0+ SEV sets the event
-  // register, so the next WFE falls through; embassy's thread-mode pender relies on that
-  // (a task woken from thread mode, e.g. just spawned, would otherwise sleep until some
-  // unrelated interrupt). The logger hook sets the event register; other messages are
-  // counted, once per text, for the report.
+  // Core 1 (see core1.mjs): a second core on the same bus, its FIFOs and boot ROM.
+  const core1 = addCore1(rp);
+
+  // rp2040js logs SEV and does nothing else. On the RP2040 SEV sets the event register of
+  // both cores, so a WFE falls through or wakes; embassy's thread-mode pender relies on
+  // that (a task woken from thread mode or from the other core would otherwise sleep until
+  // some unrelated interrupt). The logger hook does it; other messages are counted, once
+  // per text, for the report.
   const emuMessages = new Map();
   const note = (level) => (component, message) => {
     const key = `${level} [${component}] ${message}`;
@@ -405,7 +412,7 @@ function main() {
   rp.logger = {
     debug() {},
     info(component, message) {
-      if (message === 'SEV') core.eventRegistered = true;
+      if (message === 'SEV') core1.sev();
       else note('info')(component, message);
     },
     warn: note('warn'),
@@ -478,41 +485,6 @@ function main() {
     // Advance the read pointer, or defmt-rtt drops data once its buffer is full.
     rp.sramView.setUint32(rttChan + 16 - SRAM_BASE, read, true);
   };
-
-  // ---- Core 1. rp2040js 1.4.1 emulates core 0 only, and its SIO has no inter-core FIFO
-  // (FIFO_ST 0x50, FIFO_WR 0x54, FIFO_RD 0x58 read as invalid), so `spawn_core1` spins
-  // for ever. On the chip, core 1's boot ROM echoes each word of the launch sequence
-  // (0, 0, 1, VTOR, SP, entry) back through the FIFO and then runs the entry. Here the
-  // echo is given and core 1 never runs: whatever the firmware starts there (the depth
-  // ranging task) stays silent, which the report says.
-  const core1 = { launch_words: [], launched: false };
-  {
-    const sio = rp.sio;
-    const rx = [];
-    const origRead = sio.readUint32.bind(sio);
-    const origWrite = sio.writeUint32.bind(sio);
-    sio.readUint32 = (offset) => {
-      if (offset === 0x50) return (rx.length ? 1 : 0) | 2; // VLD | RDY
-      if (offset === 0x58) return rx.length ? rx.shift() : 0;
-      return origRead(offset);
-    };
-    sio.writeUint32 = (offset, value) => {
-      if (offset === 0x54) {
-        core1.launch_words.push(value >>> 0);
-        rx.push(value >>> 0);
-        if (core1.launch_words.length === 6) {
-          // embassy's spawn_core1 then waits for one more word: core 1 saying it has
-          // taken its entry closure.
-          core1.launched = true;
-          rx.push(0);
-        }
-        core.eventRegistered = true; // core 1's reply would wake a WFE
-        return;
-      }
-      if (offset === 0x50) return; // write clears the sticky error flags
-      origWrite(offset, value);
-    };
-  }
 
   // ---- UART patches (both UARTs: the firmware uses BufferedUart on each).
   const telemetry = [];
@@ -620,6 +592,14 @@ function main() {
     for (let i = 0; i < ranges.length; i++) if (pc >= ranges[i][0] && pc < ranges[i][1]) return true;
     return false;
   };
+  // The world's true pose as each step starts (one JSON line per step, `--truth`), for
+  // scoring the firmware's pose tick by tick: the step estimates the pose at this instant.
+  const truthLines = [];
+  const recordTruth = () => {
+    if (!args.truth || args.noWorld) return;
+    advanceWorld();
+    truthLines.push(JSON.stringify(world.truth()));
+  };
   const closeWindow = () => {
     if (!winOpen) return;
     winOpen = false;
@@ -641,23 +621,42 @@ function main() {
   // BUGBOT_EMU_PC_SAMPLES=1: where the core spends its time (for a firmware that spins).
   const pcSamples = process.env.BUGBOT_EMU_PC_SAMPLES ? new Map() : null;
   let asleepWithNothing = false;
+  // Two cores run side by side: each has its own time, and the core that is behind runs
+  // its next instruction; the clock (timers, device models) follows the slower of the
+  // cores that are awake. A core asleep (WFE/WFI) follows the clock.
+  const c1 = core1.core;
+  let instr1 = 0;
+  let t0 = 0, t1 = 0;
+  const c1Awake = () => core1.launched && !c1.waiting;
   while (clock.nanos < endNs && !stopReason) {
     if (core.waiting) {
       closeWindow();
-      drainRtt();
-      const next = clock.nanosToNextAlarm;
-      if (!clock.nextAlarm) { asleepWithNothing = true; break; }
-      clock.tick(Math.min(Math.max(next, 0), endNs - clock.nanos));
+      if (!c1Awake()) {
+        drainRtt();
+        const next = clock.nanosToNextAlarm;
+        if (!clock.nextAlarm) { asleepWithNothing = true; break; }
+        clock.tick(Math.min(Math.max(next, 0), endNs - clock.nanos));
+        continue;
+      }
+    }
+    if (c1Awake() && (core.waiting || t1 < t0)) {
+      if (t1 < clock.nanos) t1 = clock.nanos;
+      if (c1.PC === hardFaultPc) { stopReason = 'HardFault on core 1'; break; }
+      t1 += c1.executeInstruction() * cycleNs;
+      if ((++instr1 & 0xffff) === 0) drainRtt();
+      const until = core.waiting ? t1 : Math.min(t0, t1);
+      if (until > clock.nanos) clock.tick(until - clock.nanos);
       continue;
     }
+    if (t0 < clock.nanos) t0 = clock.nanos;
     const pc = core.PC;
     let inside = false;
     if (pc >= lo && pc < hi) {
       if (step.method === 'function') {
-        if (fnReturn < 0) { fnReturn = core.LR & ~1; fnSp = core.SP; winOpen = true; winStart = core.cycles; winIsr = 0; }
+        if (fnReturn < 0) { fnReturn = core.LR & ~1; fnSp = core.SP; winOpen = true; winStart = core.cycles; winIsr = 0; recordTruth(); }
       } else if (inStep(pc)) {
         inside = true;
-        if (!winOpen) { winOpen = true; winStart = core.cycles; winIsr = 0; }
+        if (!winOpen) { winOpen = true; winStart = core.cycles; winIsr = 0; recordTruth(); }
       }
     }
     if (pc === hardFaultPc) { stopReason = 'HardFault'; break; }
@@ -671,7 +670,9 @@ function main() {
         winEnd = core.cycles; winIsrAtEnd = winIsr; fnReturn = -1; closeWindow();
       }
     }
-    clock.tick(c * cycleNs);
+    t0 += c * cycleNs;
+    const until = c1Awake() ? Math.min(t0, t1) : t0;
+    if (until > clock.nanos) clock.tick(until - clock.nanos);
     if ((++instr & 0xffff) === 0) {
       drainRtt();
       cycleNs = 1e9 / rp.clkSys;
@@ -692,6 +693,7 @@ function main() {
 
   // ---- Outputs.
   if (args.telemetry) fs.writeFileSync(args.telemetry, Buffer.from(telemetry));
+  if (args.truth) fs.writeFileSync(args.truth, truthLines.map((l) => `${l}\n`).join(''));
   const defmtFile = args.defmt || (args.telemetry ? args.telemetry.replace(/(\.bin)?$/, '.defmt') : null);
   if (defmtFile) fs.writeFileSync(defmtFile, Buffer.from(rttBytes));
   const logs = decodeDefmt(args, defmtFile);
@@ -741,9 +743,9 @@ function main() {
       camera: cam,
       uart0_rx_bytes: uartStats[0].rx,
       uart_tx_overflows: [rp.uart[0].txOverflows || 0, rp.uart[1].txOverflows || 0],
-      core1: core1.launch_words.length
-        ? { launch_acknowledged: core1.launched, words: core1.launch_words.length, runs: false, note: 'rp2040js emulates core 0 only; tasks on core 1 never run' }
-        : { used: false },
+      core1: core1.launched
+        ? { launched: true, instructions: instr1, cycles: core1.core.cycles, load_pct: round((100 * core1.core.cycles) / (simS * NOMINAL_CLK_HZ), 2), fifo_words: core1.fifoWords }
+        : { launched: false, launch_words: core1.launchWords },
     },
     faults_injected: args.faults.map((f) => ({
       fault: `${f.kind}@T+${f.at_s}${Number.isFinite(f.until_s) ? `/${f.until_s - f.at_s}` : ''}`,
