@@ -5,8 +5,9 @@
 //! read-modify-write, so `fetch_add` runs in a short critical section). No lock is held
 //! across an `await` and no task ever waits on another to count. All counters wrap.
 //!
-//! The first nine are the wire's [`SensorHealth`] field for field; the rest are firmware
-//! detail that the wire has no field for yet, logged over defmt only.
+//! The first twelve are the wire's [`SensorHealth`] field for field (the wire calls the
+//! init failures start failures); the rest are firmware detail that the wire has no field
+//! for yet, logged over defmt only.
 
 use portable_atomic::{AtomicU32, Ordering};
 use slam_core::telemetry::SensorHealth;
@@ -57,6 +58,9 @@ pub struct HealthCounters {
     /// Times the SLAM loop fed the hardware watchdog.
     pub watchdog_feeds: Counter,
 
+    /// Depth sensor start-ups that failed (power-up, firmware upload or configuration);
+    /// each is retried after a back-off.
+    pub depth_init_failures: Counter,
     /// Flow sensor start-ups that failed (any reason); each is retried after a back-off.
     pub flow_init_failures: Counter,
     /// IMU start-ups that failed (any reason); each is retried after a back-off.
@@ -100,6 +104,7 @@ impl HealthCounters {
             camera_bad_frames: Counter::new(),
             tick_overruns: Counter::new(),
             watchdog_feeds: Counter::new(),
+            depth_init_failures: Counter::new(),
             flow_init_failures: Counter::new(),
             gyro_init_failures: Counter::new(),
             gyro_implausible: Counter::new(),
@@ -128,15 +133,16 @@ impl HealthCounters {
             camera_bad_frames: self.camera_bad_frames.get(),
             tick_overruns: self.tick_overruns.get(),
             watchdog_feeds: self.watchdog_feeds.get(),
+            depth_start_failures: self.depth_init_failures.get(),
+            flow_start_failures: self.flow_init_failures.get(),
+            gyro_start_failures: self.gyro_init_failures.get(),
         }
     }
 
     /// One defmt line with the counters the wire does not carry.
     pub fn log_firmware_detail(&self) {
         defmt::info!(
-            "health: init fail flow={=u32} gyro={=u32} | gyro implausible={=u32} recal={=u32} | camera ok={=u32} tags dropped={=u32} | telemetry dropped={=u32} err={=u32} | usb sent={=u32} no host={=u32} dropped={=u32} | motion halts={=u32} motor err={=u32}",
-            self.flow_init_failures.get(),
-            self.gyro_init_failures.get(),
+            "health: gyro implausible={=u32} recal={=u32} | camera ok={=u32} tags dropped={=u32} | telemetry dropped={=u32} err={=u32} | usb sent={=u32} no host={=u32} dropped={=u32} | motion halts={=u32} motor err={=u32}",
             self.gyro_implausible.get(),
             self.gyro_calibration_restarts.get(),
             self.camera_frames.get(),

@@ -16,7 +16,7 @@
 //! COBS( VERSION | postcard(Message) | CRC16_LE ) | 0x00
 //! ```
 //!
-//! - `VERSION` is one byte, [`WIRE_VERSION`] (`0xB1`: BugBot telemetry, layout 1). A
+//! - `VERSION` is one byte, [`WIRE_VERSION`] (`0xB2`: BugBot telemetry, layout 2). A
 //!   receiver drops frames with any other value.
 //! - `postcard(Message)` is the [postcard 1.x] encoding of [`Message`]: integers `u16`,
 //!   `u32`, `i32` are LEB128 varints (signed ones zigzag-mapped first), `u8` and `i8` are
@@ -37,7 +37,7 @@
 //! | 0 | `Hello` | `width: u16`, `height: u16` (cells), `cell_mm: i32`, `origin_x_mm: i32`, `origin_y_mm: i32`, `free_below: i8`, `occupied_above: i8` (cell units, below), `firmware: u8 major, u8 minor, u8 patch` |
 //! | 1 | `Tick` | `tick: u32`, `time_ms: u32`, `x_um: i32`, `y_um: i32`, `heading_bits: u32` (2^32 per turn, clockwise from +y), `fix` (varint 0 not attempted, 1 taken, 2 rejected followed by varint 0 geometry / 1 gate), `stale: u8` (bit 0 flow, bit 1 gyro, bit 2 depth), `cells_written: u32`, then the counters as `u32`: ticks, fixes_taken, fixes_rejected_geometry, fixes_rejected_gate, relocalisations, beams_mapped, beams_invalid, flow_stale, gyro_stale, depth_stale |
 //! | 2 | `MapRows` | `first_row: u16`, `first_column: u16`, `cells`: varint count (at most [`MAX_CHUNK_CELLS`]) then one `i8` per cell |
-//! | 3 | `Health` | nine `u32`: depth_timeouts, depth_bus_errors, flow_no_surface, flow_outliers, flow_bus_errors, gyro_bus_errors, camera_bad_frames, tick_overruns, watchdog_feeds |
+//! | 3 | `Health` | twelve `u32`: depth_timeouts, depth_bus_errors, flow_no_surface, flow_outliers, flow_bus_errors, gyro_bus_errors, camera_bad_frames, tick_overruns, watchdog_feeds, depth_start_failures, flow_start_failures, gyro_start_failures |
 //!
 //! A `MapRows` chunk's cells run in row-major order from `(first_column, first_row)`,
 //! carrying on at column 0 of the next row; row 0 is the grid's lowest y. A cell is its
@@ -50,9 +50,9 @@
 //!
 //! The longest frame is [`MAX_FRAME_LEN`] (142) bytes. On the seed's 46 x 46 grid at
 //! 10 Hz with [`Schedule::DEFAULT`]: a `MapRows` of two rows (92 cells) is 101 bytes a
-//! tick, a `Tick` at most 91 (about 35 on the seed route), a `Health` at most 52 once a
-//! second and a `Hello` at most 33 every 5 s. That is at most 10 x (101 + 91) + 52 + 7 =
-//! 1,979 bytes/s (about 1,400 on the seed route), 17 % of a 115,200 baud 8N1 UART
+//! tick, a `Tick` at most 91 (about 35 on the seed route), a `Health` at most 66 once a
+//! second and a `Hello` at most 33 every 5 s. That is at most 10 x (101 + 91) + 66 + 7 =
+//! 1,993 bytes/s (about 1,400 on the seed route), 17 % of a 115,200 baud 8N1 UART
 //! (11,520 bytes/s) and nothing for USB; the whole map refreshes every 2.3 s.
 //!
 //! [postcard 1.x]: https://postcard.jamesmunns.com/wire-format
@@ -67,11 +67,11 @@ use core::fmt;
 use serde::de::{self, SeqAccess, Visitor};
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
-/// The first byte of every frame: `0xB1`, BugBot telemetry layout 1.
+/// The first byte of every frame: `0xB2`, BugBot telemetry layout 2.
 ///
 /// Bumped whenever the layout changes, so an old viewer drops new frames instead of
-/// misreading them.
-pub const WIRE_VERSION: u8 = 0xB1;
+/// misreading them. Layout 2 added the start-up failure counts to `Health`.
+pub const WIRE_VERSION: u8 = 0xB2;
 
 /// Most cells one [`MapRows`] carries: two rows of the seed's 46-cell grid fit, and the
 /// frame stays under 150 bytes (13 ms at 115,200 baud).
@@ -245,6 +245,14 @@ pub struct SensorHealth {
     pub tick_overruns: u32,
     /// Times the watchdog was fed.
     pub watchdog_feeds: u32,
+    /// Depth sensor start-ups that failed (power-up, firmware upload or configuration);
+    /// each is retried after a back-off. Climbing with no depth scans ever arriving: the
+    /// sensor never started.
+    pub depth_start_failures: u32,
+    /// Flow sensor start-ups that failed; each is retried after a back-off.
+    pub flow_start_failures: u32,
+    /// Gyro start-ups that failed; each is retried after a back-off.
+    pub gyro_start_failures: u32,
 }
 
 /// A run of map cells, in cell units; see the module doc for the scale.
@@ -872,6 +880,9 @@ mod tests {
             camera_bad_frames: 7,
             tick_overruns: 8,
             watchdog_feeds: u32::MAX,
+            depth_start_failures: 9,
+            flow_start_failures: 10,
+            gyro_start_failures: 11,
         })
     }
 
@@ -894,14 +905,15 @@ mod tests {
 
     #[test]
     fn health_frame_fixture() {
-        // The layout written out by hand: version, variant 3, nine varints, CRC, stuffed.
+        // The layout written out by hand: version, variant 3, twelve varints, CRC, stuffed.
         let h = Message::Health(SensorHealth {
             depth_timeouts: 0,
             depth_bus_errors: 1,
             flow_no_surface: 300,
+            gyro_start_failures: 2,
             ..SensorHealth::default()
         });
-        let mut raw = std::vec![0xB1, 3, 0, 1, 0xAC, 0x02, 0, 0, 0, 0, 0, 0];
+        let mut raw = std::vec![0xB2, 3, 0, 1, 0xAC, 0x02, 0, 0, 0, 0, 0, 0, 0, 0, 2];
         let crc = crc16(&raw);
         raw.extend_from_slice(&crc.to_le_bytes());
         let mut stuffed = std::vec![0u8; 32];
@@ -911,7 +923,7 @@ mod tests {
         assert_eq!(frame(&h), stuffed);
         // No zero before the delimiter.
         assert!(!stuffed[..stuffed.len() - 1].contains(&0));
-        assert_eq!(stuffed[0], 3, "first COBS code: b1 03 then a zero");
+        assert_eq!(stuffed[0], 3, "first COBS code: b2 03 then a zero");
     }
 
     #[test]
@@ -970,6 +982,9 @@ mod tests {
             camera_bad_frames: u32::MAX,
             tick_overruns: u32::MAX,
             watchdog_feeds: u32::MAX,
+            depth_start_failures: u32::MAX,
+            flow_start_failures: u32::MAX,
+            gyro_start_failures: u32::MAX,
         };
         let mut worst_hello = hello();
         if let Message::Hello(h) = &mut worst_hello {
@@ -982,7 +997,7 @@ mod tests {
         for (m, limit) in [
             (big, MAX_FRAME_LEN),
             (worst_tick, 91),
-            (Message::Health(all_max), 52),
+            (Message::Health(all_max), 66),
             (worst_hello, 33),
         ] {
             let bytes = frame(&m);
@@ -1010,7 +1025,7 @@ mod tests {
         bytes.extend([1, 2, 3, 4, 5, 0]);
         bytes.extend(frame(&tick()));
         bytes.extend([0, 0, 0]); // empty frames: ignored
-        bytes.extend([0xB1, 0x07, 0]); // stuffing that runs past the end
+        bytes.extend([0xB2, 0x07, 0]); // stuffing that runs past the end
         bytes.extend(frame(&health()));
         let (out, stats) = decode_all(&bytes);
         let good: Vec<Message> = out.iter().filter_map(|r| r.ok()).collect();
@@ -1036,7 +1051,7 @@ mod tests {
         assert_eq!(out[1], Ok(hello()));
         assert_eq!(stats.bad_frames(), 1);
         // Too short to hold anything.
-        let (out, stats) = decode_all(&[0x02, 0xB1, 0]);
+        let (out, stats) = decode_all(&[0x02, 0xB2, 0]);
         assert_eq!(out, std::vec![Err(FrameError::TooShort)]);
         assert_eq!(stats.too_short, 1);
     }
@@ -1068,7 +1083,8 @@ mod tests {
 
     #[test]
     fn wrong_version_and_bad_body_are_told_apart() {
-        let mut raw = std::vec![0xB2, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0];
+        // Layout 1's health frame: an old firmware's.
+        let mut raw = std::vec![0xB1, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0];
         let crc = crc16(&raw);
         raw.extend_from_slice(&crc.to_le_bytes());
         let mut enc = std::vec![0u8; 32];
@@ -1078,10 +1094,10 @@ mod tests {
         assert_eq!(decode_all(&enc).0, std::vec![Err(FrameError::Version)]);
 
         for raw in [
-            std::vec![0xB1, 9],                               // no such variant
-            std::vec![0xB1, 3, 0],                            // health cut short
-            std::vec![0xB1, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 7], // a byte left over
-            std::vec![0xB1, 2, 0, 0, 0x81, 0x01],             // 129 cells announced
+            std::vec![0xB2, 9],                                        // no such variant
+            std::vec![0xB2, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0],             // health cut short
+            std::vec![0xB2, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 7], // a byte left over
+            std::vec![0xB2, 2, 0, 0, 0x81, 0x01],                      // 129 cells announced
         ] {
             let mut raw = raw;
             let crc = crc16(&raw);

@@ -13,8 +13,10 @@
 //!   mode, starts ranging, then polls data-ready every `POLL_PERIOD` and hands each
 //!   frame's distances and target statuses to core 0 through `ZONES` (a `Signal`: the
 //!   newest frame wins; it is `CriticalSectionRawMutex`-guarded, which on the RP2040 is a
-//!   hardware spinlock shared by both cores). A start-up or read error is counted in
-//!   `depth_bus_errors`; start-up is retried with a doubling back-off, and after
+//!   hardware spinlock shared by both cores). A failed start-up is counted in
+//!   `depth_init_failures` (on the wire, `depth_start_failures`: a sensor that never
+//!   starts shows as that count climbing), a read error in `depth_bus_errors`; start-up
+//!   is retried with a doubling back-off, and after
 //!   `ERRORS_BEFORE_RESTART` read errors in a row the sensor is power-cycled (LPn) and
 //!   started again.
 //! - core 0 (`depth_task`): waits for each frame with a timeout, reduces it to the core's
@@ -141,7 +143,7 @@ mod ranging {
                 }
                 Err(step) => {
                     defmt::warn!("depth: start-up failed at {=str}", step);
-                    HEALTH.depth_bus_errors.bump();
+                    HEALTH.depth_init_failures.bump();
                 }
             }
             Timer::after(backoff).await;
