@@ -1,5 +1,7 @@
 //! The log-odds occupancy grid: fixed point, saturating, sized at compile time.
 
+use crate::pose::div_floor;
+
 /// Log odds in Q8 fixed point: 256 is a log-odds of 1.0.
 pub type LogOdds = i16;
 
@@ -260,8 +262,8 @@ impl CellWalk {
             (to.0 - geometry.origin_x_mm) as i64,
             (to.1 - geometry.origin_y_mm) as i64,
         );
-        let (c0, r0) = (fx.div_euclid(cell), fy.div_euclid(cell));
-        let (c1, r1) = (tx.div_euclid(cell), ty.div_euclid(cell));
+        let (c0, r0) = (div_floor(fx, cell), div_floor(fy, cell));
+        let (c1, r1) = (div_floor(tx, cell), div_floor(ty, cell));
         let (dx, dy) = (tx - fx, ty - fy);
         let step_column = if dx > 0 { 1 } else { -1 };
         let step_row = if dy > 0 { 1 } else { -1 };

@@ -51,9 +51,37 @@ impl Pose {
 /// `a / b` rounded half away from zero; `b` must be positive.
 pub(crate) const fn round_div(a: i64, b: i64) -> i64 {
     if a >= 0 {
-        (a + b / 2) / b
+        div_trunc(a + b / 2, b)
     } else {
-        (a - b / 2) / b
+        div_trunc(a - b / 2, b)
+    }
+}
+
+/// Whether `x` fits in an `i32`.
+const fn fits_i32(x: i64) -> bool {
+    x >= i32::MIN as i64 && x <= i32::MAX as i64
+}
+
+/// `a / b` truncated toward zero; `b` must be positive.
+///
+/// In 32 bits whenever both fit, as they do for every length on the robot: the
+/// Cortex-M0+ has no divide instruction, and its software 64-bit division costs several
+/// times the 32-bit one (which the RP2040's hardware divider can also serve).
+pub(crate) const fn div_trunc(a: i64, b: i64) -> i64 {
+    if fits_i32(a) && fits_i32(b) {
+        (a as i32 / b as i32) as i64
+    } else {
+        a / b
+    }
+}
+
+/// `a / b` rounded toward negative infinity; `b` must be positive. 32-bit when both fit,
+/// as [`div_trunc`].
+pub(crate) const fn div_floor(a: i64, b: i64) -> i64 {
+    if fits_i32(a) && fits_i32(b) {
+        (a as i32).div_euclid(b as i32) as i64
+    } else {
+        a.div_euclid(b)
     }
 }
 
@@ -96,6 +124,38 @@ pub(crate) fn isqrt(n: u64) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn divisions_match_64_bit_on_both_sides_of_the_32_bit_edge() {
+        let edge = i32::MAX as i64;
+        let numerators = [
+            0,
+            1,
+            -1,
+            49,
+            -49,
+            50,
+            -50,
+            51,
+            -51,
+            999_499,
+            -999_500,
+            edge,
+            edge + 1,
+            -edge - 1,
+            -edge - 2,
+            i64::MAX / 3,
+            i64::MIN / 3,
+        ];
+        for a in numerators {
+            for b in [1i64, 2, 50, 1000, edge, edge + 7] {
+                assert_eq!(div_trunc(a, b), a / b, "{a} / {b}");
+                assert_eq!(div_floor(a, b), a.div_euclid(b), "{a} floor/ {b}");
+            }
+        }
+        assert_eq!(round_div(-1_500, 1_000), -2);
+        assert_eq!(round_div(1_499, 1_000), 1);
+    }
 
     #[test]
     fn isqrt_exact_and_floor() {
