@@ -47,9 +47,15 @@ pub fn run_in(dir: &std::path::Path, cmd: &mut Command) -> Result<(), String> {
 }
 
 /// The workspace root: the parent of this crate's manifest directory.
+///
+/// `cargo run` sets `CARGO_MANIFEST_DIR` for the running binary, and that is preferred to
+/// the path compiled in: two checkouts sharing one `CARGO_TARGET_DIR` share one xtask
+/// binary, which would otherwise build and test the other checkout.
 pub fn workspace_root() -> std::path::PathBuf {
-    let here = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
-    here.parent().unwrap_or(here).to_path_buf()
+    let here = std::env::var_os("CARGO_MANIFEST_DIR")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")));
+    here.parent().map_or_else(|| here.clone(), std::path::Path::to_path_buf)
 }
 
 fn cargo() -> Command {
