@@ -35,8 +35,10 @@ pub mod robot;
 pub mod route;
 pub mod run;
 pub mod scenario;
+pub mod score;
 pub mod serve;
 pub mod telemetry;
+pub mod truth;
 pub mod world;
 
 pub use record::RunRecord;

@@ -2,19 +2,23 @@
 //!
 //! ```text
 //! host-sim run <scenario.toml> [--pose truth|dead-reckoning|tags] [--seed N] [--json] [--out DIR] [--telemetry FILE]
-//! host-sim view <FILE | serial device> [--out DIR] [--baud N] [--seconds N] [--json]
+//! host-sim view <FILE | serial device> [--out DIR] [--baud N] [--seconds N] [--json] [--truth FILE] [--scenario FILE]
 //! host-sim bench [<scenario.toml>]
 //! ```
 //! `run --telemetry FILE` also writes the telemetry stream the robot would send on that
 //! run; `view` decodes such a stream, from a file or live from the robot's serial port
 //! (until end of file, Ctrl-C or `--seconds`), prints what it held and draws the same two
-//! pictures.
+//! pictures. `view --truth FILE` (a line of JSON per step, as the emulator's harness writes
+//! it: see `host_sim::truth`) scores each tick's pose against the truth, and
+//! `--scenario FILE` the map against that scenario's world, giving `run`'s figures under
+//! `run`'s names.
 //!
 //! Exit codes: 0 done, 1 the pictures or the stream could not be written, 2 bad
 //! arguments, scenario or stream.
 
 use host_sim::run::{run, run_with_telemetry, Figures, PoseMode};
 use host_sim::telemetry::{Recording, TelemetryWriter};
+use host_sim::truth::{parse_truth, TruthSample};
 use host_sim::{picture, RunRecord, Scenario};
 use slam_core::SeedSlam;
 use std::path::{Path, PathBuf};
@@ -26,6 +30,7 @@ use std::time::{Duration, Instant};
 const USAGE: &str = "usage:
   host-sim run <scenario.toml> [--pose truth|dead-reckoning|tags] [--seed N] [--json] [--out DIR] [--telemetry FILE]
   host-sim view <FILE | serial device> [--out DIR] [--baud N] [--seconds N] [--json]
+                [--truth TRUTH.jsonl] [--scenario SCENARIO.toml]
   host-sim serve <scenario.toml> [--seed N]     (JSON lines on stdin/stdout, for the emulator)
   host-sim bench [<scenario.toml>]";
 
@@ -166,6 +171,8 @@ struct ViewArgs {
     baud: u32,
     seconds: Option<f64>,
     json: bool,
+    truth: Option<PathBuf>,
+    scenario: Option<PathBuf>,
 }
 
 fn parse_view_args(args: &[String]) -> Result<ViewArgs, Failure> {
@@ -177,6 +184,8 @@ fn parse_view_args(args: &[String]) -> Result<ViewArgs, Failure> {
         baud: 115_200,
         seconds: None,
         json: false,
+        truth: None,
+        scenario: None,
     };
     let mut source = None;
     while let Some(arg) = it.next() {
@@ -205,6 +214,8 @@ fn parse_view_args(args: &[String]) -> Result<ViewArgs, Failure> {
                 );
             }
             "--json" => parsed.json = true,
+            "--truth" => parsed.truth = Some(PathBuf::from(value("--truth")?)),
+            "--scenario" => parsed.scenario = Some(PathBuf::from(value("--scenario")?)),
             flag if flag.starts_with("--") => return Err(bad(format!("unknown option `{flag}`"))),
             path if source.is_none() => source = Some(PathBuf::from(path)),
             extra => return Err(bad(format!("unexpected argument `{extra}`"))),
@@ -237,6 +248,13 @@ fn cmd_view(args: &[String]) -> Result<(), Failure> {
         .seconds
         .map(|s| Instant::now() + Duration::from_secs_f64(s));
     let mut recording = Recording::new();
+    if let Some(path) = &args.truth {
+        recording.recorder = recording.recorder.with_truth(load_truth(path)?);
+    }
+    if let Some(path) = &args.scenario {
+        let world = host_sim::world::World::new(&load(path)?);
+        recording.recorder = recording.recorder.with_world(world);
+    }
     let serial = is_serial_device(&args.source);
     let read = if serial {
         // Ctrl-C ends a live view; the pictures are still drawn. If a handler cannot be
@@ -299,6 +317,13 @@ fn cmd_view(args: &[String]) -> Result<(), Failure> {
         }
     }
     Ok(())
+}
+
+/// Reads a truth file (see `host_sim::truth`); a bad line is named.
+fn load_truth(path: &Path) -> Result<Vec<TruthSample>, Failure> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| Failure(2, format!("cannot read truth file {}: {e}", path.display())))?;
+    parse_truth(&text).map_err(|e| Failure(2, format!("truth file {}: {e}", path.display())))
 }
 
 fn print_summary(name: &str, mode: PoseMode, seed: u64, f: &Figures) {

@@ -1,15 +1,15 @@
 //! One run of a scenario: the robot drives its route and the core maps, tick by tick.
 
 use crate::record::{CellBelief, MapSnapshot, RunRecord, TickRecord, WorldOutline};
-use crate::robot::{wrap_deg, Robot, TruePose};
+use crate::robot::{Robot, TruePose};
 use crate::route::Route;
 use crate::scenario::Scenario;
+use crate::score::{map_counts, out_of_place_mask, pose_errors, real_mask, MapCounts};
 use crate::telemetry::TelemetryWriter;
-use crate::world::{Vec2, World};
 use serde::Serialize;
 use slam_core::{
-    Angle, CameraConfig, DepthConfig, FixOutcome, GridGeometry, KnownTag, Occupancy,
-    OdometryConfig, Pose, SensorFrame, Slam, SlamConfig, TagMap,
+    Angle, CameraConfig, DepthConfig, FixOutcome, GridGeometry, GridMap, KnownTag, OdometryConfig,
+    Pose, SensorFrame, Slam, SlamConfig, TagMap,
 };
 use std::fmt;
 use std::str::FromStr;
@@ -214,7 +214,7 @@ fn run_sized<const W: usize, const H: usize>(
     let mut robot = Robot::new(scenario, seed);
     let start = to_core_pose(&robot.truth());
     let mut slam: Box<Slam<W, H>> = Box::new(Slam::new(config, start).map_err(RunError::Config)?);
-    let real = real_mask::<W, H>(robot.world(), &config.geometry);
+    let real = real_mask(robot.world(), &config.geometry, W, H);
 
     let mut route = Route::new(&scenario.route);
     route.start(robot.truth());
@@ -248,24 +248,20 @@ fn run_sized<const W: usize, const H: usize>(
             first_fix = Some(ticks.len());
         }
         let est = report.pose;
-        let (ex, ey) = (est.x_um as f64 / 1000.0, est.y_um as f64 / 1000.0);
-        let est_heading = est.heading.to_microdegrees() as f64 / 1e6;
         if ticks.len().is_multiple_of(10) {
-            out_of_place_pct = map_counts(slam.map(), &real).out_of_place_pct();
+            out_of_place_pct = count_map(slam.map(), &real).out_of_place_pct();
         }
         let counts = slam.map().counts();
-        ticks.push(TickRecord {
-            t_s: ticks.len() as f64 * TICK_S,
-            truth_mm: (truth.x_mm, truth.y_mm),
-            truth_heading_deg: wrap_deg(truth.heading_deg),
-            estimate_mm: (ex, ey),
-            estimate_heading_deg: est_heading,
-            known_pct: 100.0 * (counts.free + counts.occupied) as f64 / (W * H) as f64,
-            error_cm: (ex - truth.x_mm).hypot(ey - truth.y_mm) / 10.0,
-            heading_error_deg: wrap_deg(est_heading - truth.heading_deg),
-            out_of_place_pct,
+        let mut tick = TickRecord::estimated(
+            ticks.len() as f64 * TICK_S,
+            (est.x_um as f64 / 1000.0, est.y_um as f64 / 1000.0),
+            est.heading.to_microdegrees() as f64 / 1e6,
+            100.0 * (counts.free + counts.occupied) as f64 / (W * H) as f64,
             fix_taken,
-        });
+        );
+        tick.set_truth((truth.x_mm, truth.y_mm), truth.heading_deg);
+        tick.out_of_place_pct = out_of_place_pct;
+        ticks.push(tick);
         robot.advance(TICK_S, command);
         route.after_tick(robot.truth(), TICK_S);
     }
@@ -273,37 +269,34 @@ fn run_sized<const W: usize, const H: usize>(
     if let Some(t) = telemetry {
         t.finish(slam.map());
     }
-    let final_counts = map_counts(slam.map(), &real);
+    let final_counts = count_map(slam.map(), &real);
     if let Some(last) = ticks.last_mut() {
         last.out_of_place_pct = final_counts.out_of_place_pct();
     }
     let counters = slam.counters();
-    let after = |f: fn(&TickRecord) -> f64| {
-        first_fix.map_or(0.0, |i| ticks.iter().skip(i).map(f).fold(0.0, f64::max))
-    };
-    let last = ticks.last();
+    let errors = pose_errors(&ticks);
     let figures = Figures {
         ticks: ticks.len(),
         duration_s: ticks.len() as f64 * TICK_S,
-        known_pct: 100.0 * (final_counts.free + final_counts.occupied) as f64 / (W * H) as f64,
+        known_pct: final_counts.known_pct(),
         free: final_counts.free,
         occupied: final_counts.occupied,
         out_of_place: final_counts.out_of_place,
         fixes: counters.fixes_taken,
         fixes_rejected: counters.fixes_rejected_gate + counters.fixes_rejected_geometry,
         first_fix_s: first_fix.map(|i| i as f64 * TICK_S),
-        final_error_cm: last.map_or(0.0, |t| t.error_cm),
-        max_error_after_first_fix_cm: after(|t| t.error_cm),
-        final_heading_error_deg: last.map_or(0.0, |t| t.heading_error_deg.abs()),
-        max_heading_error_after_first_fix_deg: after(|t| t.heading_error_deg.abs()),
-        max_error_cm: ticks.iter().map(|t| t.error_cm).fold(0.0, f64::max),
+        final_error_cm: errors.final_error_cm,
+        max_error_after_first_fix_cm: errors.max_error_after_first_fix_cm,
+        final_heading_error_deg: errors.final_heading_error_deg,
+        max_heading_error_after_first_fix_deg: errors.max_heading_error_after_first_fix_deg,
+        max_error_cm: errors.max_error_cm,
     };
     let record = RunRecord {
         scenario: scenario.name.clone(),
         pose_mode: mode.name().to_string(),
         ticks,
         map: snapshot(slam.map(), &real),
-        world: outline(robot.world()),
+        world: WorldOutline::of(robot.world()),
     };
     Ok(RunOutput {
         record,
@@ -312,99 +305,27 @@ fn run_sized<const W: usize, const H: usize>(
     })
 }
 
-/// For each cell, whether its centre lies on something real.
-fn real_mask<const W: usize, const H: usize>(world: &World, g: &GridGeometry) -> Vec<bool> {
-    (0..H as i32)
-        .flat_map(|r| (0..W as i32).map(move |c| (c, r)))
-        .map(|(c, r)| {
-            let (x, y) = cell_centre(g, c, r);
-            world.is_real(Vec2::new(x, y))
-        })
-        .collect()
+/// The beliefs of `map`, row-major from the lowest row.
+fn beliefs<const W: usize, const H: usize>(
+    map: &GridMap<W, H>,
+) -> impl Iterator<Item = CellBelief> + '_ {
+    (0..W * H).map(|i| map.occupancy((i % W) as i32, (i / W) as i32).into())
 }
 
-fn cell_centre(g: &GridGeometry, c: i32, r: i32) -> (f64, f64) {
-    let cell = g.cell_mm as f64;
-    (
-        g.origin_x_mm as f64 + (c as f64 + 0.5) * cell,
-        g.origin_y_mm as f64 + (r as f64 + 0.5) * cell,
-    )
+fn count_map<const W: usize, const H: usize>(map: &GridMap<W, H>, real: &[bool]) -> MapCounts {
+    map_counts(beliefs(map), real)
 }
 
-struct MapCounts {
-    free: u32,
-    occupied: u32,
-    out_of_place: u32,
-}
-
-impl MapCounts {
-    fn out_of_place_pct(&self) -> f64 {
-        100.0 * self.out_of_place as f64 / self.occupied.max(1) as f64
-    }
-}
-
-fn map_counts<const W: usize, const H: usize>(
-    map: &slam_core::GridMap<W, H>,
-    real: &[bool],
-) -> MapCounts {
-    let mut m = MapCounts {
-        free: 0,
-        occupied: 0,
-        out_of_place: 0,
-    };
-    for (i, real) in real.iter().enumerate() {
-        match map.occupancy((i % W) as i32, (i / W) as i32) {
-            Occupancy::Free => m.free += 1,
-            Occupancy::Occupied => {
-                m.occupied += 1;
-                m.out_of_place += u32::from(!real);
-            }
-            Occupancy::Unknown => {}
-        }
-    }
-    m
-}
-
-fn snapshot<const W: usize, const H: usize>(
-    map: &slam_core::GridMap<W, H>,
-    real: &[bool],
-) -> MapSnapshot {
+fn snapshot<const W: usize, const H: usize>(map: &GridMap<W, H>, real: &[bool]) -> MapSnapshot {
     let g = map.geometry();
-    let cells: Vec<CellBelief> = (0..W * H)
-        .map(|i| match map.occupancy((i % W) as i32, (i / W) as i32) {
-            Occupancy::Free => CellBelief::Free,
-            Occupancy::Occupied => CellBelief::Occupied,
-            Occupancy::Unknown => CellBelief::Unknown,
-        })
-        .collect();
-    let out_of_place = cells
-        .iter()
-        .zip(real)
-        .map(|(c, r)| *c == CellBelief::Occupied && !r)
-        .collect();
+    let cells: Vec<CellBelief> = beliefs(map).collect();
     MapSnapshot {
         width: W,
         height: H,
         cell_mm: g.cell_mm as f64,
         origin_x_mm: g.origin_x_mm as f64,
         origin_y_mm: g.origin_y_mm as f64,
+        out_of_place: out_of_place_mask(&cells, real),
         cells,
-        out_of_place,
-    }
-}
-
-fn outline(world: &World) -> WorldOutline {
-    WorldOutline {
-        walls: world
-            .walls()
-            .iter()
-            .filter(|w| w.tag.is_none())
-            .map(|w| ((w.a.x, w.a.y), (w.b.x, w.b.y)))
-            .collect(),
-        tags: world
-            .tags()
-            .iter()
-            .map(|t| (t.id, (t.centre.x, t.centre.y)))
-            .collect(),
     }
 }

@@ -6,17 +6,23 @@
 //! decoded messages from a file or a serial port and builds a [`RunRecord`], so
 //! [`crate::picture`] draws a real robot's run as it draws a simulated one.
 //!
-//! A robot knows nothing of the truth: in a record built from telemetry every truth and
-//! error field is NaN (the pictures leave NaN out), the world outline is empty and no
-//! cell is marked out of place.
+//! A robot knows nothing of the truth: in a record built from telemetry alone every truth
+//! and error field is NaN (the pictures leave NaN out), the world outline is empty and no
+//! cell is marked out of place. Given the truth ([`TelemetryRecorder::with_truth`]: the
+//! emulator's harness records it) and the world ([`TelemetryRecorder::with_world`]), the
+//! recorder fills them in and its [`Summary`] carries `host-sim run`'s figures, worked out
+//! by the same code ([`crate::score`]).
 
 use crate::record::{CellBelief, MapSnapshot, RunRecord, TickRecord, WorldOutline};
+use crate::score::{map_counts, out_of_place_mask, pose_errors, real_mask, PoseErrors};
+use crate::truth::{route_start_s, truth_at, TruthSample};
+use crate::world::World;
 use serde::Serialize;
 use slam_core::telemetry::{
     encode, DecoderStats, FirmwareVersion, Hello, MapRows, Message, Schedule, SensorHealth,
     StreamDecoder, Streamer, Tick, MAX_FRAME_LEN,
 };
-use slam_core::{Counters, FixOutcome, GridMap, Occupancy, StepReport};
+use slam_core::{Counters, FixOutcome, GridGeometry, GridMap, Occupancy, StepReport};
 use std::fmt;
 use std::io::{self, Read};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -118,12 +124,30 @@ pub struct TelemetryRecorder {
     map_rows: u32,
     map_rows_refused: u32,
     restarts: u32,
+    /// The true poses, in time order, when known.
+    truth: Option<Vec<TruthSample>>,
+    ticks_without_truth: u32,
+    /// The world the robot is in, when known.
+    world: Option<World>,
 }
 
 impl TelemetryRecorder {
     /// Nothing received yet.
     pub fn new() -> TelemetryRecorder {
         TelemetryRecorder::default()
+    }
+
+    /// Scores each tick's pose against `truth` (in time order, as
+    /// [`crate::truth::parse_truth`] gives it), paired by [`truth_at`].
+    pub fn with_truth(mut self, truth: Vec<TruthSample>) -> TelemetryRecorder {
+        self.truth = Some(truth);
+        self
+    }
+
+    /// Scores the map against `world`: out-of-place cells, and the world under the map.
+    pub fn with_world(mut self, world: World) -> TelemetryRecorder {
+        self.world = Some(world);
+        self
     }
 
     /// Takes one decoded message.
@@ -172,18 +196,20 @@ impl TelemetryRecorder {
             }
             _ => f64::NAN,
         };
-        self.ticks.push(TickRecord {
-            t_s: f64::from(t.time_ms) / 1000.0,
-            truth_mm: (f64::NAN, f64::NAN),
-            truth_heading_deg: f64::NAN,
-            estimate_mm: (f64::from(pose.x_um) / 1000.0, f64::from(pose.y_um) / 1000.0),
-            estimate_heading_deg: f64::from(pose.heading.to_microdegrees()) / 1e6,
+        let mut record = TickRecord::estimated(
+            f64::from(t.time_ms) / 1000.0,
+            (f64::from(pose.x_um) / 1000.0, f64::from(pose.y_um) / 1000.0),
+            f64::from(pose.heading.to_microdegrees()) / 1e6,
             known_pct,
-            error_cm: f64::NAN,
-            heading_error_deg: f64::NAN,
-            out_of_place_pct: f64::NAN,
-            fix_taken: t.fix == FixOutcome::Taken,
-        });
+            t.fix == FixOutcome::Taken,
+        );
+        if let Some(truth) = &self.truth {
+            match truth_at(truth, t.time_ms) {
+                Some(s) => record.set_truth((s.x_mm, s.y_mm), s.heading_deg),
+                None => self.ticks_without_truth += 1,
+            }
+        }
+        self.ticks.push(record);
         self.last_tick = Some(*t);
     }
 
@@ -234,14 +260,23 @@ impl TelemetryRecorder {
             return Vec::new();
         };
         let scale = h.scale();
-        self.cells
-            .iter()
-            .map(|&c| match scale.belief(c) {
-                Occupancy::Free => CellBelief::Free,
-                Occupancy::Occupied => CellBelief::Occupied,
-                Occupancy::Unknown => CellBelief::Unknown,
-            })
-            .collect()
+        self.cells.iter().map(|&c| scale.belief(c).into()).collect()
+    }
+
+    /// For each cell of the latest grid, whether it lies on something real in the world;
+    /// empty without a world or a `Hello` (then nothing is out of place).
+    fn real_mask(&self) -> Vec<bool> {
+        match (&self.world, self.hello) {
+            (Some(world), Some(h)) => {
+                let geometry = GridGeometry {
+                    cell_mm: h.cell_mm,
+                    origin_x_mm: h.origin_x_mm,
+                    origin_y_mm: h.origin_y_mm,
+                };
+                real_mask(world, &geometry, h.width.into(), h.height.into())
+            }
+            _ => Vec::new(),
+        }
     }
 
     /// The run as the pictures want it, named `name`.
@@ -255,6 +290,7 @@ impl TelemetryRecorder {
                 h.origin_y_mm,
             )
         });
+        let cells = self.beliefs();
         RunRecord {
             scenario: name.to_string(),
             pose_mode: "robot telemetry".to_string(),
@@ -265,17 +301,19 @@ impl TelemetryRecorder {
                 cell_mm: f64::from(cell_mm),
                 origin_x_mm: f64::from(ox),
                 origin_y_mm: f64::from(oy),
-                cells: self.beliefs(),
-                out_of_place: Vec::new(),
+                out_of_place: out_of_place_mask(&cells, &self.real_mask()),
+                cells,
             },
-            world: WorldOutline::default(),
+            world: self
+                .world
+                .as_ref()
+                .map_or_else(WorldOutline::default, WorldOutline::of),
         }
     }
 
     /// What came in, for the summary; `stats` are the decoder's counts.
     pub fn summary(&self, stats: &DecoderStats) -> Summary {
-        let beliefs = self.beliefs();
-        let count = |b: CellBelief| beliefs.iter().filter(|&&c| c == b).count();
+        let map = map_counts(self.beliefs(), &self.real_mask());
         Summary {
             ticks: self.ticks.len(),
             duration_s: self.ticks.last().map_or(0.0, |t| t.t_s),
@@ -298,8 +336,16 @@ impl TelemetryRecorder {
                 )
             }),
             grid: self.hello.map(|h| (h.width, h.height)),
-            free: count(CellBelief::Free),
-            occupied: count(CellBelief::Occupied),
+            free: map.free as usize,
+            occupied: map.occupied as usize,
+            known_pct: map.known_pct(),
+            out_of_place: self.world.as_ref().map(|_| map.out_of_place),
+            truth: self.truth.as_ref().map(|truth| TruthFigures {
+                errors: pose_errors(&self.ticks),
+                truth_samples: truth.len(),
+                ticks_without_truth: self.ticks_without_truth,
+                route_start_s: route_start_s(truth),
+            }),
             hellos: self.hellos,
             map_rows: self.map_rows,
             map_rows_refused: self.map_rows_refused,
@@ -373,6 +419,13 @@ pub struct Summary {
     pub free: usize,
     /// Cells believed occupied in the latest map.
     pub occupied: usize,
+    /// Share of the grid with a firm belief in the latest map, percent.
+    pub known_pct: f64,
+    /// Occupied cells on no real wall or tag; with the world only.
+    pub out_of_place: Option<u32>,
+    /// The pose against the truth; with the truth only (its keys sit beside these).
+    #[serde(flatten)]
+    pub truth: Option<TruthFigures>,
     /// `Hello`s received.
     pub hellos: u32,
     /// Map chunks placed.
@@ -385,6 +438,21 @@ pub struct Summary {
     pub frames_ok: u32,
     /// Dropped frames.
     pub bad_frames: BadFrames,
+}
+
+/// A telemetry run's pose against the truth.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct TruthFigures {
+    /// The figures `host-sim run` reports, under the same names.
+    #[serde(flatten)]
+    pub errors: PoseErrors,
+    /// Truth samples given.
+    pub truth_samples: usize,
+    /// Ticks with no truth sample near their time: left out of the errors.
+    pub ticks_without_truth: u32,
+    /// The last time the robot stood where it started, seconds (see
+    /// [`crate::truth::route_start_s`]): subtract it from a time to compare with `run`'s.
+    pub route_start_s: Option<f64>,
 }
 
 impl fmt::Display for Summary {
@@ -411,7 +479,28 @@ impl fmt::Display for Summary {
                 p.heading_deg
             )?;
         }
-        writeln!(f, "map: free {}  occupied {}", self.free, self.occupied)?;
+        write!(
+            f,
+            "map: free {}  occupied {}  known {:.1} %",
+            self.free, self.occupied, self.known_pct
+        )?;
+        match self.out_of_place {
+            Some(n) => writeln!(f, "  out of place {n}")?,
+            None => writeln!(f)?,
+        }
+        if let Some(t) = self.truth {
+            let e = t.errors;
+            let start = t.route_start_s.map_or("never moved".to_string(), |s| {
+                format!("moved after {s:.1} s")
+            });
+            writeln!(
+                f,
+                "against the truth ({} samples, {} ticks without one; {start}): after the first fix error <= {:.1} cm, heading <= {:.1} deg; final error {:.1} cm, heading {:.1} deg; max error {:.1} cm",
+                t.truth_samples, t.ticks_without_truth, e.max_error_after_first_fix_cm,
+                e.max_heading_error_after_first_fix_deg, e.final_error_cm,
+                e.final_heading_error_deg, e.max_error_cm
+            )?;
+        }
         if let Some(c) = self.counters {
             writeln!(
                 f,

@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{host_sim, seed_path};
+use common::{host_sim, seed_path, SCORED_FIGURES};
 use host_sim::run::{run, PoseMode};
 use host_sim::telemetry::decode_bytes;
 use host_sim::Scenario;
@@ -236,4 +236,131 @@ fn a_late_viewer_waits_for_hello_and_refuses_chunks_off_the_grid() {
     let record = r.record("late");
     assert_eq!(record.map.cells.len(), 12);
     assert!(record.ticks.is_empty());
+}
+
+/// The run's own truth, one line per tick as the emulator's harness writes it.
+fn truth_lines(record: &host_sim::RunRecord) -> Vec<String> {
+    record
+        .ticks
+        .iter()
+        .map(|t| {
+            serde_json::json!({
+                "t_s": t.t_s,
+                "x_mm": t.truth_mm.0,
+                "y_mm": t.truth_mm.1,
+                "heading_deg": t.truth_heading_deg,
+            })
+            .to_string()
+        })
+        .collect()
+}
+
+fn view_json(args: &[&str]) -> serde_json::Value {
+    let out = host_sim(args);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{args:?}: {err}");
+    serde_json::from_slice(&out.stdout).unwrap_or(serde_json::Value::Null)
+}
+
+#[test]
+fn view_with_the_truth_scores_a_run_as_run_does() {
+    let dir = scratch("truth");
+    recorded_stream(&dir);
+    let stream = dir.join("seed.bin");
+    let scenario = Scenario::load(&seed_path()).expect("seed scenario loads");
+    let output = run(&scenario, PoseMode::Tags, scenario.seed).expect("seed runs");
+    let lines = truth_lines(&output.record);
+    let truth = dir.join("truth.jsonl");
+    std::fs::write(&truth, lines.join("\n") + "\n").ok();
+
+    let v = view_json(&[
+        "view",
+        path_str(&stream),
+        "--truth",
+        path_str(&truth),
+        "--scenario",
+        path_str(&seed_path()),
+        "--json",
+    ]);
+    let sim = serde_json::to_value(&output.figures).unwrap_or_default();
+    for key in SCORED_FIGURES {
+        let (a, b) = (v[key].as_f64(), sim[key].as_f64());
+        assert!(
+            matches!((a, b), (Some(a), Some(b)) if (a - b).abs() < 1e-6),
+            "{key}: view {:?}, run {:?}",
+            v[key],
+            sim[key]
+        );
+    }
+    assert_eq!(v["ticks_without_truth"].as_u64(), Some(0), "{v}");
+    assert_eq!(v["route_start_s"].as_f64(), Some(0.0), "{v}");
+    // The keys CI reads are still there.
+    assert_eq!(v["bad_frames"]["total"].as_u64(), Some(0), "{v}");
+    assert!(v["health"].is_object() && v["counters"].is_object() && v["final_pose"].is_object());
+
+    // A lost truth line costs its tick's score, counted; the rest still scores.
+    let mut gappy = lines.clone();
+    gappy.remove(100);
+    std::fs::write(&truth, gappy.join("\n")).ok();
+    let v = view_json(&[
+        "view",
+        path_str(&stream),
+        "--truth",
+        path_str(&truth),
+        "--json",
+    ]);
+    assert_eq!(v["ticks_without_truth"].as_u64(), Some(1), "{v}");
+    assert_eq!(v["truth_samples"].as_u64(), Some(lines.len() as u64 - 1));
+    assert!(
+        v["out_of_place"].is_null(),
+        "no world, no out-of-place count: {v}"
+    );
+    assert!(v["max_error_cm"].as_f64().is_some_and(|e| e > 0.0), "{v}");
+
+    // Without --truth, no pose score at all.
+    let v = view_json(&["view", path_str(&stream), "--json"]);
+    assert!(v.get("max_error_cm").is_none(), "{v}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_bad_truth_file_is_refused_naming_the_line() {
+    let dir = scratch("badtruth");
+    recorded_stream(&dir);
+    let stream = dir.join("seed.bin");
+    let good = "{\"t_s\":0.1,\"x_mm\":700,\"y_mm\":500,\"heading_deg\":0}";
+    let truth = dir.join("truth.jsonl");
+    for (text, what) in [
+        (
+            format!("{good}\n{good}\n{{\"t_s\":0.3,\"x_mm\":700}}\n"),
+            "line 3",
+        ),
+        (format!("{good}\n\n{good}\n[1,2]\n"), "line 4"),
+        (format!("{good}\nnot a sample\n"), "line 2"),
+        (
+            format!("{good}\n{}\n", good.replace("0.1", "0.05")),
+            "time order",
+        ),
+    ] {
+        std::fs::write(&truth, &text).ok();
+        let out = host_sim(&["view", path_str(&stream), "--truth", path_str(&truth)]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{text}: {err}");
+        assert!(
+            err.contains(what) && err.contains("truth.jsonl"),
+            "{text}: {err}"
+        );
+        assert!(!err.contains("panicked"), "{err}");
+        assert!(
+            out.stdout.is_empty(),
+            "{text}: no figures from a bad truth file"
+        );
+    }
+    let missing = dir.join("missing.jsonl");
+    let out = host_sim(&["view", path_str(&stream), "--truth", path_str(&missing)]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("cannot read truth file"));
+    let out = host_sim(&["view", path_str(&stream), "--scenario", "/nonexistent.toml"]);
+    assert_eq!(out.status.code(), Some(2));
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -55,7 +55,8 @@ pub fn workspace_root() -> std::path::PathBuf {
     let here = std::env::var_os("CARGO_MANIFEST_DIR")
         .map(std::path::PathBuf::from)
         .unwrap_or_else(|| std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")));
-    here.parent().map_or_else(|| here.clone(), std::path::Path::to_path_buf)
+    here.parent()
+        .map_or_else(|| here.clone(), std::path::Path::to_path_buf)
 }
 
 fn cargo() -> Command {
@@ -68,8 +69,10 @@ fn cargo() -> Command {
 fn test(_args: &[String]) -> Result<(), String> {
     let (passed, failed) = cargo_test(&["test", "--workspace", "--release"])?;
     firmware::run(&[])?;
-    let (emulated_passed, emulated_failed) = emulate::check_fault_run()?;
-    let (passed, failed) = (passed + emulated_passed, failed + emulated_failed);
+    let (fault_passed, fault_failed) = emulate::check_fault_run()?;
+    let (route_passed, route_failed) = emulate::check_route_run()?;
+    let passed = passed + fault_passed + route_passed;
+    let failed = failed + fault_failed + route_failed;
     println!("tests: {passed} passed, {failed} failed");
     if failed > 0 {
         return Err(format!("{failed} emulator checks failed"));

@@ -18,3 +18,19 @@ pub fn host_sim(args: &[&str]) -> Output {
         Err(e) => panic!("cannot start host-sim: {e}"),
     }
 }
+
+/// The figures `host-sim run --json` reports that `host-sim view --truth --scenario --json`
+/// reports too, under the same names (`run` adds `ticks` and the rest).
+pub const SCORED_FIGURES: [&str; 11] = [
+    "known_pct",
+    "free",
+    "occupied",
+    "out_of_place",
+    "fixes",
+    "first_fix_s",
+    "final_error_cm",
+    "max_error_after_first_fix_cm",
+    "final_heading_error_deg",
+    "max_heading_error_after_first_fix_deg",
+    "max_error_cm",
+];

@@ -1,0 +1,170 @@
+//! How far a run is from the truth: the pose errors and map counts `host-sim run` reports.
+//!
+//! They are worked out here once, from a run's ticks and final map, so that
+//! `host-sim view --truth --scenario` scores a robot's (or the emulated firmware's) run by
+//! the very code that scores the simulator's, and the two sets of figures can be compared.
+
+use crate::record::{CellBelief, TickRecord};
+use crate::world::{Vec2, World};
+use serde::Serialize;
+use slam_core::GridGeometry;
+
+/// The pose figures of a run, against the truth.
+///
+/// Ticks whose truth is unknown (NaN errors: a telemetry tick with no truth sample) are
+/// left out of every figure; the fix that starts the "after the first fix" window is the
+/// first tick with a fix taken, truth or not.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct PoseErrors {
+    /// Position error at the last tick with a truth, centimetres (0 without one).
+    pub final_error_cm: f64,
+    /// Largest position error from the first fix on, centimetres (0 without a fix).
+    pub max_error_after_first_fix_cm: f64,
+    /// Heading error at the last tick with a truth, degrees (absolute; 0 without one).
+    pub final_heading_error_deg: f64,
+    /// Largest heading error from the first fix on, degrees (absolute; 0 without a fix).
+    pub max_heading_error_after_first_fix_deg: f64,
+    /// Largest position error over the whole run, centimetres.
+    pub max_error_cm: f64,
+}
+
+/// The pose figures of `ticks`, in time order.
+pub fn pose_errors(ticks: &[TickRecord]) -> PoseErrors {
+    let first_fix = ticks.iter().position(|t| t.fix_taken);
+    // `f64::max` ignores NaN, so ticks without a truth drop out of the maxima.
+    let after = |f: fn(&TickRecord) -> f64| {
+        first_fix.map_or(0.0, |i| ticks.iter().skip(i).map(f).fold(0.0, f64::max))
+    };
+    let last = ticks.iter().rev().find(|t| t.error_cm.is_finite());
+    PoseErrors {
+        final_error_cm: last.map_or(0.0, |t| t.error_cm),
+        max_error_after_first_fix_cm: after(|t| t.error_cm),
+        final_heading_error_deg: last.map_or(0.0, |t| t.heading_error_deg.abs()),
+        max_heading_error_after_first_fix_deg: after(|t| t.heading_error_deg.abs()),
+        max_error_cm: ticks.iter().map(|t| t.error_cm).fold(0.0, f64::max),
+    }
+}
+
+/// What a map holds, against the world it was drawn in.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MapCounts {
+    /// Cells in the grid.
+    pub cells: u32,
+    /// Cells believed free.
+    pub free: u32,
+    /// Cells believed occupied.
+    pub occupied: u32,
+    /// Occupied cells on no real wall or tag.
+    pub out_of_place: u32,
+}
+
+impl MapCounts {
+    /// Share of the grid with a firm belief, percent.
+    pub fn known_pct(&self) -> f64 {
+        100.0 * f64::from(self.free + self.occupied) / f64::from(self.cells.max(1))
+    }
+
+    /// Share of the occupied cells that are out of place, percent.
+    pub fn out_of_place_pct(&self) -> f64 {
+        100.0 * f64::from(self.out_of_place) / f64::from(self.occupied.max(1))
+    }
+}
+
+/// Counts a map's beliefs, row-major as [`real_mask`] lays them out. A cell with no entry
+/// in `real` counts as real, so an empty `real` (the world unknown) puts nothing out of
+/// place.
+pub fn map_counts(cells: impl IntoIterator<Item = CellBelief>, real: &[bool]) -> MapCounts {
+    let mut m = MapCounts::default();
+    for (i, cell) in cells.into_iter().enumerate() {
+        m.cells += 1;
+        match cell {
+            CellBelief::Free => m.free += 1,
+            CellBelief::Occupied => {
+                m.occupied += 1;
+                m.out_of_place += u32::from(!real.get(i).copied().unwrap_or(true));
+            }
+            CellBelief::Unknown => {}
+        }
+    }
+    m
+}
+
+/// For each cell of a `width` x `height` grid laid on the world by `g`, row-major from
+/// the lowest row: whether its centre lies on something real.
+pub fn real_mask(world: &World, g: &GridGeometry, width: usize, height: usize) -> Vec<bool> {
+    let cell = f64::from(g.cell_mm);
+    let centre = |i: usize| {
+        let (c, r) = ((i % width) as f64, (i / width) as f64);
+        Vec2::new(
+            f64::from(g.origin_x_mm) + (c + 0.5) * cell,
+            f64::from(g.origin_y_mm) + (r + 0.5) * cell,
+        )
+    };
+    (0..width * height)
+        .map(|i| world.is_real(centre(i)))
+        .collect()
+}
+
+/// Which cells are occupied but not real (the map picture marks them).
+pub fn out_of_place_mask(cells: &[CellBelief], real: &[bool]) -> Vec<bool> {
+    cells
+        .iter()
+        .enumerate()
+        .map(|(i, c)| *c == CellBelief::Occupied && !real.get(i).copied().unwrap_or(true))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tick(error_cm: f64, heading_error_deg: f64, fix_taken: bool) -> TickRecord {
+        let mut t = TickRecord::estimated(0.0, (0.0, 0.0), heading_error_deg, 0.0, fix_taken);
+        if error_cm.is_finite() {
+            t.set_truth((error_cm * 10.0, 0.0), 0.0);
+        }
+        t
+    }
+
+    #[test]
+    fn errors_after_the_first_fix_skip_the_drift_before_it() {
+        let ticks = [
+            tick(5.0, -9.0, false),
+            tick(1.0, 2.0, true),
+            tick(1.5, -3.0, false),
+            tick(0.5, 1.0, false),
+        ];
+        let e = pose_errors(&ticks);
+        assert!((e.max_error_cm - 5.0).abs() < 1e-9);
+        assert!((e.max_error_after_first_fix_cm - 1.5).abs() < 1e-9);
+        assert!((e.max_heading_error_after_first_fix_deg - 3.0).abs() < 1e-9);
+        assert!((e.final_error_cm - 0.5).abs() < 1e-9);
+        assert!((e.final_heading_error_deg - 1.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn ticks_without_truth_drop_out_and_no_fix_means_zero_after() {
+        let ticks = [tick(2.0, 4.0, false), tick(f64::NAN, 0.0, false)];
+        let e = pose_errors(&ticks);
+        assert!((e.final_error_cm - 2.0).abs() < 1e-9);
+        assert!((e.final_heading_error_deg - 4.0).abs() < 1e-9);
+        assert_eq!(e.max_error_after_first_fix_cm, 0.0);
+        assert_eq!(pose_errors(&[]).max_error_cm, 0.0);
+    }
+
+    #[test]
+    fn counts_beliefs_and_out_of_place_cells() {
+        use CellBelief::{Free, Occupied, Unknown};
+        let cells = [Free, Occupied, Occupied, Unknown];
+        let real = [true, true, false, false];
+        let m = map_counts(cells, &real);
+        assert_eq!((m.cells, m.free, m.occupied, m.out_of_place), (4, 1, 2, 1));
+        assert!((m.known_pct() - 75.0).abs() < 1e-9);
+        assert!((m.out_of_place_pct() - 50.0).abs() < 1e-9);
+        assert_eq!(map_counts(cells, &[]).out_of_place, 0);
+        assert_eq!(
+            out_of_place_mask(&cells, &real),
+            [false, false, true, false]
+        );
+    }
+}
