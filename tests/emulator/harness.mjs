@@ -6,12 +6,13 @@
 //   core from the vector table at 0x10000100 (boot2 and the boot ROM are skipped);
 // - covers the rp2040js gaps the firmware runs into (I2C interrupt mask, UART DMA control,
 //   RX DMA request and TX interrupt, SPI mode), each patch saying what the real chip does;
-// - runs the core under a `SimulationClock`: asleep (WFE/WFI) it jumps to the next alarm,
-//   awake it executes one instruction and moves the clock on by its cycles;
+// - runs both cores (core 1 is added by core1.mjs: rp2040js has one) under a
+//   `SimulationClock`: the core that is behind executes its next instruction and the clock
+//   follows the slower awake core; with both asleep (WFE/WFI) it jumps to the next alarm;
 // - drains the defmt RTT up-channel from SRAM at the `_SEGGER_RTT` symbol into a file,
 //   and captures UART1 TX (telemetry) into another; `host-sim view` decodes the latter;
 // - models the devices: PMW3901 flow (SPI0, CS GP17), ICM-42688-P gyro (I2C1 @ 0x68),
-//   the VL53L5CX's I2C0 address (ACK/NACK only: its bus layer is not written yet), the
+//   the VL53L5CX (I2C0 @ 0x29, vl53l5cx.mjs: answers ST's ULD, firmware upload and all), the
 //   camera co-processor's frames on UART0 RX (every 100 ms), and reads the motor PWM
 //   slices back as wheel duties;
 // - asks `host-sim serve` (JSON lines over two FIFOs, synchronously) to move the world to
@@ -34,6 +35,7 @@ import { fileURLToPath } from 'node:url';
 import { RP2040 } from './node_modules/rp2040js/dist/esm/rp2040.js';
 import { SimulationClock } from './node_modules/rp2040js/dist/esm/clock/simulation-clock.js';
 import { addCore1 } from './core1.mjs';
+import { Vl53l5cxModel } from './vl53l5cx.mjs';
 
 const HERE = path.dirname(fileURLToPath(import.meta.url));
 const REPO = path.resolve(HERE, '..', '..');
@@ -502,9 +504,17 @@ function main() {
     return world.gyro().rate_mdps;
   }, () => clock.nanos);
   const imuBus = attachI2cBus(rp.i2c[1], later, { 0x68: imu }, () => (faultOn('gyro-nack') ? [0x68] : []));
-  const depth = new AckOnlyModel();
+  // VL53L5CX on I2C0 (0x29), its ULD run by core 1. LPn (GP6) low powers the part down:
+  // it stops answering and forgets its firmware; high, or an input (the board pulls LPn
+  // up), powers it up.
+  const depth = new Vl53l5cxModel({
+    readBeams: () => { advanceWorld(); return world.depth(); },
+    nowNs: () => clock.nanos,
+  });
+  rp.gpio[6].addListener((state) => (state === 0 ? depth.powerDown() : depth.powerUp()));
   const depthFault = args.faults.find((f) => f.kind === 'depth-nack');
   const depthBus = attachI2cBus(rp.i2c[0], later, { 0x29: depth }, () => {
+    if (!depth.present) return [0x29];
     if (faultOn('depth-nack')) { depthFault.events++; return [0x29]; }
     return [];
   });
@@ -605,6 +615,7 @@ function main() {
     winOpen = false;
     // Interrupts taken between the step's first and last instruction are not the step's.
     stepCycles.push(winEnd - winStart - winIsrAtEnd);
+    if (stepProfile) stepProfile.commit();
     stepIsrCycles.push(winIsrAtEnd);
   };
   const lo = step.method === 'inlined-ranges' ? step.lo : step.method === 'function' ? step.entry : 1;
@@ -620,6 +631,8 @@ function main() {
   const hardFaultPc = hardFault ? hardFault.value & ~1 : -1;
   // BUGBOT_EMU_PC_SAMPLES=1: where the core spends its time (for a firmware that spins).
   const pcSamples = process.env.BUGBOT_EMU_PC_SAMPLES ? new Map() : null;
+  // BUGBOT_EMU_STEP_PROFILE=1: the step's cycles by function (where a slow step spends them).
+  const stepProfile = process.env.BUGBOT_EMU_STEP_PROFILE ? functionProfiler(elf) : null;
   let asleepWithNothing = false;
   // Two cores run side by side: each has its own time, and the core that is behind runs
   // its next instruction; the clock (timers, device models) follows the slower of the
@@ -665,7 +678,8 @@ function main() {
     const c = core.executeInstruction();
     if (winOpen) {
       if (core.IPSR !== 0) winIsr += core.cycles - before;
-      if (inside) { winEnd = core.cycles; winIsrAtEnd = winIsr; }
+      else if (stepProfile) stepProfile.add(pc, core.cycles - before);
+      if (inside) { winEnd = core.cycles; winIsrAtEnd = winIsr; if (stepProfile) stepProfile.mark(); }
       if (fnReturn >= 0 && core.PC === fnReturn && core.SP >= fnSp && core.IPSR === 0) {
         winEnd = core.cycles; winIsrAtEnd = winIsr; fnReturn = -1; closeWindow();
       }
@@ -739,7 +753,7 @@ function main() {
     devices: {
       flow: { reads: flow.bursts, register_reads: flow.regReads, writes: flow.writes, resets: flow.resets, spi_mode_errors: flow.modeErrors },
       imu: { samples: imu.samples, resets: imu.resets, nacks: imuBus.nacks },
-      depth: { transactions: depthBus.transactions, nacks: depthBus.nacks },
+      depth: { transactions: depthBus.transactions, nacks: depthBus.nacks, ...depth.stats() },
       camera: cam,
       uart0_rx_bytes: uartStats[0].rx,
       uart_tx_overflows: [rp.uart[0].txOverflows || 0, rp.uart[1].txOverflows || 0],
@@ -754,6 +768,7 @@ function main() {
     last_logs: logs.lines.slice(-8),
     emulator_messages: [...emuMessages].slice(0, 20).map(([k, n]) => `${n}x ${k}`),
   };
+  if (stepProfile) result.step_profile = stepProfile.top(process.env.BUGBOT_EMU_STEP_PROFILE === 'pc' ? 2000 : 15, stepCycles.length);
   if (pcSamples) {
     result.pc_samples = [...pcSamples].sort((x, y) => y[1] - x[1]).slice(0, 12).map(([pc, n]) => `0x${pc.toString(16)} x${n}`);
   }
@@ -763,6 +778,41 @@ function main() {
     for (const l of logs.lines) console.log(l);
     console.log(JSON.stringify(result, null, 2));
   }
+}
+
+/// Cycles by the function holding each PC (from the ELF's function symbols).
+function functionProfiler(elf) {
+  const fns = elf.symbols.filter((s) => s.type === 2 && s.size > 0)
+    .map((s) => ({ lo: s.value & ~1, hi: (s.value & ~1) + s.size, name: s.name }))
+    .sort((a, b) => a.lo - b.lo);
+  const cycles = new Map();
+  // This step's samples so far, and how many of them came before its last instruction
+  // (the window stays open after it until the core sleeps).
+  let pending = [];
+  let marked = 0;
+  const find = (pc) => {
+    let a = 0, b = fns.length - 1;
+    while (a <= b) {
+      const m = (a + b) >> 1;
+      if (pc < fns[m].lo) b = m - 1;
+      else if (pc >= fns[m].hi) a = m + 1;
+      else return fns[m].name;
+    }
+    return `0x${pc.toString(16)}`;
+  };
+  return {
+    add(pc, c) { pending.push(process.env.BUGBOT_EMU_STEP_PROFILE === 'pc' ? `0x${pc.toString(16)}` : find(pc), c); },
+    mark() { marked = pending.length; },
+    commit() {
+      for (let i = 0; i < marked; i += 2) cycles.set(pending[i], (cycles.get(pending[i]) || 0) + pending[i + 1]);
+      pending = [];
+      marked = 0;
+    },
+    top(n, steps) {
+      return [...cycles].sort((x, y) => y[1] - x[1]).slice(0, n)
+        .map(([f, c]) => `${Math.round(c / Math.max(1, steps))} cycles/step ${f}`);
+    },
+  };
 }
 
 function round(x, n) {
@@ -931,15 +981,6 @@ function attachI2cBus(i2c, later, devices, nacking) {
 
 // ---------------------------------------------------------------------------------------
 // Device models
-
-/// VL53L5CX stand-in: ACKs its address (0x29) and reads zeros. The firmware's depth bus
-/// layer does not exist yet, so nothing more is asked of it.
-class AckOnlyModel {
-  connect() {}
-  write() {}
-  read() { return 0; }
-  stop() {}
-}
 
 /// ICM-42688-P, user bank 0, as drivers/src/imu uses it: WHO_AM_I, soft reset with the
 /// reset-done flag, PWR_MGMT0 (gyro on after its start-up time), GYRO_CONFIG0 (full
