@@ -2,9 +2,10 @@
 //! BugBot's 8 range beams.
 //!
 //! This module is only the pure reduction. The bus layer for the real part
-//! (I2C firmware upload, ranging start, result read-out) is done separately
-//! later; it will fill a [`ZoneResult`] and call [`reduce`]. No ST firmware
-//! or configuration tables live in this crate.
+//! (I2C firmware upload, ranging start, result read-out) is ST's Ultra Lite
+//! Driver, run by the firmware (`firmware/src/sensors/depth.rs`); it fills a
+//! [`ZoneResult`] with [`ZoneResult::from_frame`] and calls [`reduce`]. No ST
+//! firmware or configuration tables live in this crate.
 //!
 //! # Zone order and the mirror
 //!
@@ -37,6 +38,8 @@ pub const BEAM_COUNT: usize = ZONES_PER_SIDE;
 
 /// Target status: range valid.
 pub const STATUS_VALID: u8 = 5;
+/// Target status: no target detected in the zone.
+pub const STATUS_NO_TARGET: u8 = 255;
 /// Target status: range valid but the wrap-around check was not performed
 /// (lower confidence, accepted).
 pub const STATUS_VALID_NO_WRAP_CHECK: u8 = 6;
@@ -67,6 +70,27 @@ pub struct ZoneResult {
     pub distance_mm: [i16; ZONE_COUNT],
     /// ST target status per zone; see [`STATUS_VALID`] and friends.
     pub target_status: [u8; ZONE_COUNT],
+}
+
+impl ZoneResult {
+    /// One target per zone from the driver's frame. A zone whose target count is 0 has no
+    /// valid distance or status (the part leaves whatever the buffer held, which ST says
+    /// not to read), so its status becomes [`STATUS_NO_TARGET`].
+    pub fn from_frame(
+        distance_mm: [i16; ZONE_COUNT],
+        mut target_status: [u8; ZONE_COUNT],
+        nb_target_detected: &[u8; ZONE_COUNT],
+    ) -> ZoneResult {
+        for (status, &targets) in target_status.iter_mut().zip(nb_target_detected) {
+            if targets == 0 {
+                *status = STATUS_NO_TARGET;
+            }
+        }
+        ZoneResult {
+            distance_mm,
+            target_status,
+        }
+    }
 }
 
 /// Which zone rows feed a beam.

@@ -2,6 +2,7 @@
 
 use drivers::depth::{
     reduce, status_accepted, BeamRanges, DepthConfig, ZoneResult, BEAM_CENTRE_UDEG,
+    STATUS_NO_TARGET, STATUS_VALID, ZONE_COUNT,
 };
 
 /// All zones valid at 2000 mm.
@@ -124,4 +125,22 @@ fn beams_run_left_to_right_symmetrically() {
         assert_eq!(BEAM_CENTRE_UDEG[b], -BEAM_CENTRE_UDEG[7 - b]);
     }
     assert!(BEAM_CENTRE_UDEG.windows(2).all(|w| w[0] < w[1]));
+}
+
+#[test]
+fn zones_without_a_target_are_dropped_whatever_their_stale_status() {
+    // The part reports 0 targets in column 2's zones but leaves a "valid" status and an
+    // old distance in the buffer; those zones must not make a beam.
+    let mut targets = [1u8; ZONE_COUNT];
+    for row in 0..8 {
+        targets[zone(row, 2)] = 0;
+    }
+    let z = ZoneResult::from_frame([750; ZONE_COUNT], [STATUS_VALID; ZONE_COUNT], &targets);
+    assert_eq!(z.target_status[zone(3, 2)], STATUS_NO_TARGET);
+    assert_eq!(z.target_status[zone(3, 3)], STATUS_VALID);
+    let out = reduce(&z, &DepthConfig::default());
+    // Sensor column 2 is beam 5.
+    assert_eq!(out.range_mm[5], None);
+    assert_eq!(out.range_mm[4], Some(750));
+    assert_eq!(out.dropped_status, 2);
 }

@@ -42,7 +42,7 @@ pub use stale::depth_task;
 
 #[cfg(feature = "vl53l5cx")]
 mod ranging {
-    use drivers::depth::{reduce, DepthConfig, ZoneResult, ZONE_COUNT};
+    use drivers::depth::{reduce, DepthConfig, ZoneResult};
     use embassy_executor::Executor;
     use embassy_rp::gpio::Output;
     use embassy_rp::i2c::{Blocking, I2c};
@@ -190,14 +190,13 @@ mod ranging {
             match sensor.get_ranging_data() {
                 Ok(data) => {
                     failures_in_a_row = 0;
-                    let mut zones = ZoneResult {
-                        distance_mm: [0; ZONE_COUNT],
-                        target_status: [0; ZONE_COUNT],
-                    };
-                    // One target per zone (the crate's default), so zone i is entry i.
-                    zones.distance_mm.copy_from_slice(&data.distance_mm);
-                    zones.target_status.copy_from_slice(&data.target_status);
-                    ZONES.signal(zones);
+                    // One target per zone (the crate's default), so zone i is entry i;
+                    // a zone with no target has no valid entry.
+                    ZONES.signal(ZoneResult::from_frame(
+                        data.distance_mm,
+                        data.target_status,
+                        &data.nb_target_detected,
+                    ));
                 }
                 Err(_) => {
                     HEALTH.depth_bus_errors.bump();
