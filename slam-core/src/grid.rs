@@ -183,17 +183,36 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
 
     /// Adds `amount` to a cell, saturating at the clamp; cells outside the grid are ignored.
     /// Returns whether the cell was inside.
+    #[inline]
     pub fn add(&mut self, column: i32, row: i32, amount: LogOdds) -> bool {
-        let clamp = self.evidence.clamp;
-        let Some(cell) = usize::try_from(row)
-            .ok()
-            .and_then(|r| self.cells.get_mut(r))
-            .and_then(|r| usize::try_from(column).ok().and_then(|c| r.get_mut(c)))
-        else {
+        // One unsigned comparison per axis rejects negatives too; the sum in 32 bits cannot
+        // overflow, and the clamp (at most `i16::MAX`) brings it back into a cell.
+        let (Ok(column), Ok(row)) = (usize::try_from(column), usize::try_from(row)) else {
             return false;
         };
-        *cell = cell.saturating_add(amount).clamp(-clamp, clamp);
+        let Some(cell) = self.cells.get_mut(row).and_then(|r| r.get_mut(column)) else {
+            return false;
+        };
+        let clamp = i32::from(self.evidence.clamp);
+        *cell = (i32::from(*cell) + i32::from(amount)).max(-clamp).min(clamp) as LogOdds;
         true
+    }
+
+    /// Marks `cells` free but for `spared`; returns how many were inside the grid.
+    #[inline]
+    fn mark_free(
+        &mut self,
+        cells: impl Iterator<Item = (i32, i32)>,
+        spared: Option<(i32, i32)>,
+    ) -> u32 {
+        let miss = self.evidence.miss;
+        let mut written = 0;
+        for cell in cells {
+            if Some(cell) != spared && self.add(cell.0, cell.1, miss) {
+                written += 1;
+            }
+        }
+        written
     }
 
     /// Writes one beam: free along it, occupied where it stopped.
@@ -211,16 +230,11 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
         hit: bool,
     ) -> u32 {
         let hit_cell = self.geometry.cell_of(to.0, to.1);
-        let mut written = 0;
-        let miss = self.evidence.miss;
-        for (column, row) in CellWalk::new(&self.geometry, from, free_end) {
-            if hit && (column, row) == hit_cell {
-                continue;
-            }
-            if self.add(column, row, miss) {
-                written += 1;
-            }
-        }
+        // One loop per walk width, so the step's width is not decided again per cell.
+        let mut written = match CellWalk::new(&self.geometry, from, free_end) {
+            CellWalk::Short(walk) => self.mark_free(walk, hit.then_some(hit_cell)),
+            CellWalk::Long(walk) => self.mark_free(walk, hit.then_some(hit_cell)),
+        };
         if hit && self.add(hit_cell.0, hit_cell.1, self.evidence.hit) {
             written += 1;
         }
@@ -230,19 +244,101 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
 
 /// The cells a segment crosses, in order, each once (Amanatides and Woo, in integers).
 ///
-/// Works in whole millimetres relative to the grid: for beams of a few metres every
-/// product stays far inside `i32`.
-pub struct CellWalk {
+/// Works in whole millimetres relative to the grid. A segment up to [`SHORT_WALK_MM`] along
+/// each axis (every beam the robot casts) walks in 32-bit arithmetic, which the Cortex-M0+
+/// does in single instructions; longer ones walk the same way in 64 bits, where every
+/// product stays far inside `i64`.
+pub enum CellWalk {
+    /// Both axes and the cell size under [`SHORT_WALK_MM`].
+    Short(Walk<i32>),
+    /// Anything longer.
+    Long(Walk<i64>),
+}
+
+/// Longest extent along either axis (and largest cell) walked in 32 bits: the walk's
+/// boundary distances stay below `(extent + cell) * extent`, which is under `2^29` here.
+pub const SHORT_WALK_MM: i64 = 1 << 14;
+
+impl CellWalk {
+    /// The walk from `from` to `to` (map millimetres) over `geometry`'s cells.
+    pub fn new(geometry: &GridGeometry, from: (i32, i32), to: (i32, i32)) -> CellWalk {
+        let cell = (geometry.cell_mm as i64).max(1);
+        let start = (
+            from.0 as i64 - geometry.origin_x_mm as i64,
+            from.1 as i64 - geometry.origin_y_mm as i64,
+        );
+        let end = (
+            to.0 as i64 - geometry.origin_x_mm as i64,
+            to.1 as i64 - geometry.origin_y_mm as i64,
+        );
+        let short = |v: i64| v.abs() < SHORT_WALK_MM;
+        if short(end.0 - start.0) && short(end.1 - start.1) && short(cell) {
+            CellWalk::Short(Walk::new(cell, start, end))
+        } else {
+            CellWalk::Long(Walk::new(cell, start, end))
+        }
+    }
+}
+
+impl Iterator for CellWalk {
+    type Item = (i32, i32);
+
+    #[inline]
+    fn next(&mut self) -> Option<(i32, i32)> {
+        match self {
+            CellWalk::Short(w) => w.next(),
+            CellWalk::Long(w) => w.next(),
+        }
+    }
+}
+
+/// The integers a [`Walk`] accumulates boundary distances in.
+pub trait WalkInt: Copy + Ord + core::ops::Mul<Output = Self> {
+    /// Larger than any distance reached: the boundary along an axis the segment does not
+    /// move on.
+    const NEVER: Self;
+    /// `self + other`, stopping at [`WalkInt::NEVER`].
+    fn add_capped(self, other: Self) -> Self;
+    /// `v` in this width; only called with values that fit.
+    fn narrow(v: i64) -> Self;
+}
+
+impl WalkInt for i32 {
+    const NEVER: i32 = i32::MAX;
+    #[inline]
+    fn add_capped(self, other: i32) -> i32 {
+        self.saturating_add(other)
+    }
+    #[inline]
+    fn narrow(v: i64) -> i32 {
+        v as i32
+    }
+}
+
+impl WalkInt for i64 {
+    const NEVER: i64 = i64::MAX;
+    #[inline]
+    fn add_capped(self, other: i64) -> i64 {
+        self.saturating_add(other)
+    }
+    #[inline]
+    fn narrow(v: i64) -> i64 {
+        v
+    }
+}
+
+/// One walk's state, its boundary distances in `T`.
+pub struct Walk<T> {
     column: i32,
     row: i32,
     step_column: i32,
     step_row: i32,
     /// Distance to the next vertical boundary, scaled by `|dy|` (compared against `next_row`).
-    next_column: i64,
+    next_column: T,
     /// Distance to the next horizontal boundary, scaled by `|dx|`.
-    next_row: i64,
-    delta_column: i64,
-    delta_row: i64,
+    next_row: T,
+    delta_column: T,
+    delta_row: T,
     /// Column boundaries still to cross before the end cell.
     columns_left: u32,
     /// Row boundaries still to cross before the end cell.
@@ -250,24 +346,16 @@ pub struct CellWalk {
     started: bool,
 }
 
-impl CellWalk {
-    /// The walk from `from` to `to` (map millimetres) over `geometry`'s cells.
-    pub fn new(geometry: &GridGeometry, from: (i32, i32), to: (i32, i32)) -> CellWalk {
-        let cell = geometry.cell_mm.max(1) as i64;
-        let (fx, fy) = (
-            (from.0 - geometry.origin_x_mm) as i64,
-            (from.1 - geometry.origin_y_mm) as i64,
-        );
-        let (tx, ty) = (
-            (to.0 - geometry.origin_x_mm) as i64,
-            (to.1 - geometry.origin_y_mm) as i64,
-        );
+impl<T: WalkInt> Walk<T> {
+    /// The walk from `start` to `end`, millimetres from the grid's corner. The cell size
+    /// and the extent along each axis must fit `T`'s products (see [`SHORT_WALK_MM`]).
+    fn new(cell: i64, start: (i64, i64), end: (i64, i64)) -> Walk<T> {
+        let (fx, fy) = start;
         let (c0, r0) = (div_floor(fx, cell), div_floor(fy, cell));
-        let (c1, r1) = (div_floor(tx, cell), div_floor(ty, cell));
-        let (dx, dy) = (tx - fx, ty - fy);
-        let step_column = if dx > 0 { 1 } else { -1 };
-        let step_row = if dy > 0 { 1 } else { -1 };
-        // Distance from the start to the first boundary crossed along each axis.
+        let (c1, r1) = (div_floor(end.0, cell), div_floor(end.1, cell));
+        let (dx, dy) = (end.0 - fx, end.1 - fy);
+        // Distance from the start to the first boundary crossed along each axis (at most
+        // one cell).
         let to_column_edge = if dx > 0 {
             (c0 + 1) * cell - fx
         } else {
@@ -278,22 +366,23 @@ impl CellWalk {
         } else {
             fy - r0 * cell
         };
-        let (adx, ady) = (dx.abs(), dy.abs());
-        CellWalk {
+        let (adx, ady) = (T::narrow(dx.abs()), T::narrow(dy.abs()));
+        let cell = T::narrow(cell);
+        Walk {
             column: c0 as i32,
             row: r0 as i32,
-            step_column,
-            step_row,
+            step_column: if dx > 0 { 1 } else { -1 },
+            step_row: if dy > 0 { 1 } else { -1 },
             // A boundary along an axis the segment does not move on is never reached.
-            next_column: if adx == 0 {
-                i64::MAX
+            next_column: if dx == 0 {
+                T::NEVER
             } else {
-                to_column_edge * ady
+                T::narrow(to_column_edge) * ady
             },
-            next_row: if ady == 0 {
-                i64::MAX
+            next_row: if dy == 0 {
+                T::NEVER
             } else {
-                to_row_edge * adx
+                T::narrow(to_row_edge) * adx
             },
             delta_column: cell * ady,
             delta_row: cell * adx,
@@ -304,9 +393,10 @@ impl CellWalk {
     }
 }
 
-impl Iterator for CellWalk {
+impl<T: WalkInt> Iterator for Walk<T> {
     type Item = (i32, i32);
 
+    #[inline]
     fn next(&mut self) -> Option<(i32, i32)> {
         if !self.started {
             self.started = true;
@@ -322,11 +412,11 @@ impl Iterator for CellWalk {
         if self.rows_left == 0 || (self.columns_left > 0 && column_first) {
             self.columns_left -= 1;
             self.column += self.step_column;
-            self.next_column = self.next_column.saturating_add(self.delta_column);
+            self.next_column = self.next_column.add_capped(self.delta_column);
         } else {
             self.rows_left -= 1;
             self.row += self.step_row;
-            self.next_row = self.next_row.saturating_add(self.delta_row);
+            self.next_row = self.next_row.add_capped(self.delta_row);
         }
         Some((self.column, self.row))
     }
@@ -360,6 +450,36 @@ mod tests {
         sorted.sort();
         sorted.dedup();
         assert_eq!(sorted.len(), cells.len());
+    }
+
+    #[test]
+    fn short_walks_in_32_bits_equal_the_64_bit_walk() {
+        // A fixed pseudo-random sequence (LCG) of segments up to the 32-bit limit.
+        let mut state = 0x2545_f491_4f6c_dd1d_u64;
+        let mut next = |span: i64| {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            ((state >> 33) as i64).rem_euclid(2 * span + 1) - span
+        };
+        let limit = SHORT_WALK_MM - 1;
+        for _ in 0..20_000 {
+            let cell = 1 + next(200).abs();
+            let start = (next(30_000), next(30_000));
+            let end = (start.0 + next(limit), start.1 + next(limit));
+            let wide: std::vec::Vec<_> = Walk::<i64>::new(cell, start, end).collect();
+            let narrow: std::vec::Vec<_> = Walk::<i32>::new(cell, start, end).collect();
+            assert_eq!(narrow, wide, "cell {cell} from {start:?} to {end:?}");
+        }
+        // And the dispatch: a beam takes the 32-bit walk, a segment past the limit does not.
+        assert!(matches!(
+            CellWalk::new(&GEO, (0, 0), (4000, -3000)),
+            CellWalk::Short(_)
+        ));
+        assert!(matches!(
+            CellWalk::new(&GEO, (0, 0), (20_000, 0)),
+            CellWalk::Long(_)
+        ));
     }
 
     #[test]

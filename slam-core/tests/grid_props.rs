@@ -297,51 +297,81 @@ fn point() -> impl Strategy<Value = (i32, i32)> {
     ]
 }
 
+/// `CellWalk` starts at the start cell, ends at the end cell, moves one 4-connected step
+/// at a time, visits no cell twice; it contains every cell the exact segment crosses;
+/// any extra cell only touches the segment (at a corner or an end point on a line); and
+/// when the segment grazes no grid line or corner it *is* the exact crossing sequence.
+fn check_walk(geo: GridGeometry, from: (i32, i32), to: (i32, i32)) -> Result<(), TestCaseError> {
+    let walk: Vec<(i32, i32)> = CellWalk::new(&geo, from, to).collect();
+    let start = geo.cell_of(from.0, from.1);
+    let end = geo.cell_of(to.0, to.1);
+    prop_assert_eq!(walk.first(), Some(&start));
+    prop_assert_eq!(walk.last(), Some(&end));
+    let manhattan = (end.0 - start.0).abs() + (end.1 - start.1).abs();
+    prop_assert_eq!(walk.len() as i32, manhattan + 1);
+    for pair in walk.windows(2) {
+        let d = (pair[1].0 - pair[0].0).abs() + (pair[1].1 - pair[0].1).abs();
+        prop_assert_eq!(d, 1, "not 4-connected: {:?}", pair);
+    }
+    let mut sorted = walk.clone();
+    sorted.sort();
+    sorted.dedup();
+    prop_assert_eq!(sorted.len(), walk.len(), "a cell visited twice");
+
+    let rg = Geometry {
+        cell: geo.cell_mm as f64,
+        origin_x: geo.origin_x_mm as f64,
+        origin_y: geo.origin_y_mm as f64,
+    };
+    let (a, b) = ((from.0 as f64, from.1 as f64), (to.0 as f64, to.1 as f64));
+    let exact = reference::crossed_cells(&rg, a, b);
+    for c in &exact {
+        prop_assert!(
+            walk.contains(c),
+            "crossed cell {:?} missing from the walk {:?}",
+            c,
+            walk
+        );
+    }
+    for c in walk.iter().filter(|c| !exact.contains(c)) {
+        prop_assert!(
+            reference::segment_meets_box(a, b, rg.square(*c, 1e-6)),
+            "walk cell {:?} is nowhere near the segment",
+            c
+        );
+    }
+    let rel = |p: (i32, i32)| {
+        (
+            (p.0 - geo.origin_x_mm) as i64,
+            (p.1 - geo.origin_y_mm) as i64,
+        )
+    };
+    if !grazes(geo.cell_mm as i64, rel(from), rel(to)) {
+        prop_assert_eq!(&walk, &exact);
+    }
+    Ok(())
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 1500, ..config() })]
 
-    /// `CellWalk` starts at the start cell, ends at the end cell, moves one 4-connected step
-    /// at a time, visits no cell twice; it contains every cell the exact segment crosses;
-    /// any extra cell only touches the segment (at a corner or an end point on a line); and
-    /// when the segment grazes no grid line or corner it *is* the exact crossing sequence.
+    /// Every walk a beam makes (the 32-bit walk): see [`check_walk`].
     #[test]
     fn cell_walk_is_the_exact_crossing(geo in geometry(), from in point(), to in point()) {
-        let walk: Vec<(i32, i32)> = CellWalk::new(&geo, from, to).collect();
-        let start = geo.cell_of(from.0, from.1);
-        let end = geo.cell_of(to.0, to.1);
-        prop_assert_eq!(walk.first(), Some(&start));
-        prop_assert_eq!(walk.last(), Some(&end));
-        let manhattan = (end.0 - start.0).abs() + (end.1 - start.1).abs();
-        prop_assert_eq!(walk.len() as i32, manhattan + 1);
-        for pair in walk.windows(2) {
-            let d = (pair[1].0 - pair[0].0).abs() + (pair[1].1 - pair[0].1).abs();
-            prop_assert_eq!(d, 1, "not 4-connected: {:?}", pair);
-        }
-        let mut sorted = walk.clone();
-        sorted.sort();
-        sorted.dedup();
-        prop_assert_eq!(sorted.len(), walk.len(), "a cell visited twice");
+        check_walk(geo, from, to)?;
+    }
 
-        let rg = Geometry {
-            cell: geo.cell_mm as f64,
-            origin_x: geo.origin_x_mm as f64,
-            origin_y: geo.origin_y_mm as f64,
-        };
-        let (a, b) = ((from.0 as f64, from.1 as f64), (to.0 as f64, to.1 as f64));
-        let exact = reference::crossed_cells(&rg, a, b);
-        for c in &exact {
-            prop_assert!(walk.contains(c), "crossed cell {:?} missing from the walk {:?}", c, walk);
-        }
-        for c in walk.iter().filter(|c| !exact.contains(c)) {
-            prop_assert!(
-                reference::segment_meets_box(a, b, rg.square(*c, 1e-6)),
-                "walk cell {:?} is nowhere near the segment", c
-            );
-        }
-        let rel = |p: (i32, i32)| ((p.0 - geo.origin_x_mm) as i64, (p.1 - geo.origin_y_mm) as i64);
-        if !grazes(geo.cell_mm as i64, rel(from), rel(to)) {
-            prop_assert_eq!(&walk, &exact);
-        }
+    /// Segments too long for the 32-bit walk (tens of kilometres over cells of metres),
+    /// held to the same properties.
+    #[test]
+    fn long_cell_walk_is_the_exact_crossing(
+        cell_mm in 5_000i32..60_000,
+        origin in (-500_000i32..500_000, -500_000i32..500_000),
+        from in (-2_000_000i32..2_000_000, -2_000_000i32..2_000_000),
+        to in (-2_000_000i32..2_000_000, -2_000_000i32..2_000_000),
+    ) {
+        let geo = GridGeometry { cell_mm, origin_x_mm: origin.0, origin_y_mm: origin.1 };
+        check_walk(geo, from, to)?;
     }
 }
 
