@@ -106,6 +106,8 @@ pub struct OccupancyCounts {
 pub struct GridMap<const W: usize, const H: usize> {
     geometry: GridGeometry,
     evidence: Evidence,
+    /// Divides by the cell size without dividing, for every beam's cells.
+    divider: CellDivider,
     cells: [[LogOdds; W]; H],
 }
 
@@ -120,6 +122,7 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
         GridMap {
             geometry,
             evidence,
+            divider: CellDivider::new(geometry.cell_mm as i64),
             cells: [[0; W]; H],
         }
     }
@@ -194,25 +197,85 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
             return false;
         };
         let clamp = i32::from(self.evidence.clamp);
-        *cell = (i32::from(*cell) + i32::from(amount)).max(-clamp).min(clamp) as LogOdds;
+        *cell = (i32::from(*cell) + i32::from(amount))
+            .max(-clamp)
+            .min(clamp) as LogOdds;
         true
     }
 
-    /// Marks `cells` free but for `spared`; returns how many were inside the grid.
-    #[inline]
-    fn mark_free(
-        &mut self,
-        cells: impl Iterator<Item = (i32, i32)>,
-        spared: Option<(i32, i32)>,
-    ) -> u32 {
-        let miss = self.evidence.miss;
-        let mut written = 0;
-        for cell in cells {
-            if Some(cell) != spared && self.add(cell.0, cell.1, miss) {
-                written += 1;
+    /// Marks the cells of `walk` free but for `spared`; returns how many were inside the
+    /// grid.
+    ///
+    /// This is the map's inner loop (a few hundred cells a tick). When both end cells are
+    /// in the grid, so is every cell between (the walk never leaves their bounding box), and
+    /// the loop steps a flat index instead of checking each cell's column and row. Never
+    /// inlined: inlined into the step (and the firmware's task) its state was spilled to
+    /// the stack on the Cortex-M0+, at about 90 cycles a cell.
+    #[inline(never)]
+    fn mark_free<T: WalkInt>(&mut self, walk: Walk<T>, spared: Option<(i32, i32)>) -> u32 {
+        let miss = i32::from(self.evidence.miss);
+        let clamp = i32::from(self.evidence.clamp);
+        let index = |(column, row): (i32, i32)| {
+            let inside = (column as u32) < W as u32 && (row as u32) < H as u32;
+            inside.then(|| row as usize * W + column as usize)
+        };
+        let ends = (index((walk.column, walk.row)), index(walk.end()));
+        let (Some(mut at), Some(_), true) = (ends.0, ends.1, miss <= 0) else {
+            // An end outside the grid (or evidence that adds where beams pass): cell by
+            // cell, skipping those outside.
+            let mut written = 0;
+            for cell in walk {
+                if Some(cell) != spared && self.add(cell.0, cell.1, self.evidence.miss) {
+                    written += 1;
+                }
             }
+            return written;
+        };
+        // Every cell visited is written but the spared one: counted once, not per cell.
+        // Once met, `spared` becomes `SEEN`, which no index reaches (fewer registers than
+        // a flag: the M0+ has eight).
+        const SEEN: usize = usize::MAX - 1;
+        let visited = 1 + walk.columns_left + walk.rows_left;
+        let mut spared = spared.and_then(index).unwrap_or(usize::MAX);
+        let column_step = walk.step_column as isize;
+        let row_step = walk.step_row as isize * W as isize;
+        let cells = self.cells.as_flattened_mut();
+        let mut free = |at: usize| {
+            if at == spared {
+                spared = SEEN;
+            } else if let Some(cell) = cells.get_mut(at) {
+                // Cells never exceed the clamp, so a negative miss needs only the floor.
+                *cell = (i32::from(*cell) + miss).max(-clamp) as LogOdds;
+            }
+        };
+        // `Walk::advance`'s rule in two phases, each with fewer live values than the M0+
+        // has registers for: while both axes have boundaries left the difference decides;
+        // then the rest is a straight run along the one axis left. The test
+        // `beams_write_exactly_the_cells_their_walk_visits` holds it to the iterator.
+        let (mut diff, mut columns, mut rows) = (walk.diff, walk.columns_left, walk.rows_left);
+        free(at);
+        while columns > 0 && rows > 0 {
+            if diff < T::ZERO {
+                columns -= 1;
+                diff = diff + walk.delta_column;
+                at = at.wrapping_add_signed(column_step);
+            } else {
+                rows -= 1;
+                diff = diff - walk.delta_row;
+                at = at.wrapping_add_signed(row_step);
+            }
+            free(at);
         }
-        written
+        let (run, step) = if columns > 0 {
+            (columns, column_step)
+        } else {
+            (rows, row_step)
+        };
+        for _ in 0..run {
+            at = at.wrapping_add_signed(step);
+            free(at);
+        }
+        visited - u32::from(spared == SEEN)
     }
 
     /// Writes one beam: free along it, occupied where it stopped.
@@ -229,16 +292,94 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
         to: (i32, i32),
         hit: bool,
     ) -> u32 {
-        let hit_cell = self.geometry.cell_of(to.0, to.1);
+        let hit_cell = self.divider.cell_of(&self.geometry, to);
         // One loop per walk width, so the step's width is not decided again per cell.
-        let mut written = match CellWalk::new(&self.geometry, from, free_end) {
-            CellWalk::Short(walk) => self.mark_free(walk, hit.then_some(hit_cell)),
-            CellWalk::Long(walk) => self.mark_free(walk, hit.then_some(hit_cell)),
-        };
+        let mut written =
+            match CellWalk::with_divider(&self.geometry, &self.divider, from, free_end) {
+                CellWalk::Short(walk) => self.mark_free(walk, hit.then_some(hit_cell)),
+                CellWalk::Long(walk) => self.mark_free(walk, hit.then_some(hit_cell)),
+            };
         if hit && self.add(hit_cell.0, hit_cell.1, self.evidence.hit) {
             written += 1;
         }
         written
+    }
+}
+
+/// Floor division by the cell size by a multiply and a shift: the Cortex-M0+ has no
+/// divide instruction, and a beam needs six divisions (about 140 cycles each in software).
+///
+/// For `0 <= a < 2^15` (a point up to 32 m from the grid's corner), `floor(a / cell)` is
+/// `(a * m) >> s` with `s = 15 + ceil(log2(cell))` and `m = ceil(2^s / cell)`: then
+/// `m <= 2^16`, so `a * m` fits 32 bits, and the rounding error `m * cell - 2^s` is below
+/// `cell <= 2^(s - 15)`, which keeps the quotient exact over that range (Granlund and
+/// Montgomery). Anything else, and cells of 2^16 mm or more, divide.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct CellDivider {
+    /// The cell size, millimetres (at least 1).
+    cell: i64,
+    /// `m`, or 0 when the cell is too large for the shortcut.
+    multiplier: u32,
+    /// `s`.
+    shift: u32,
+}
+
+impl CellDivider {
+    /// Offsets from `0` up to (not including) this take the multiply.
+    const LIMIT: i64 = 1 << 15;
+
+    const fn new(cell: i64) -> CellDivider {
+        let cell = if cell < 1 { 1 } else { cell };
+        if cell >= 1 << 16 {
+            return CellDivider {
+                cell,
+                multiplier: 0,
+                shift: 0,
+            };
+        }
+        // ceil(log2(cell)), for cell >= 1.
+        let log2 = 64 - (cell - 1).leading_zeros();
+        let shift = 15 + log2;
+        let multiplier = (1u64 << shift).div_ceil(cell as u64);
+        CellDivider {
+            cell,
+            multiplier: multiplier as u32,
+            shift,
+        }
+    }
+
+    /// `floor(a / cell)`.
+    #[inline]
+    fn floor(&self, a: i64) -> i64 {
+        if (0..Self::LIMIT).contains(&a) && self.multiplier != 0 {
+            ((a as u32 * self.multiplier) >> self.shift) as i64
+        } else {
+            div_floor(a, self.cell)
+        }
+    }
+
+    /// `floor(a / cell)` in 32 bits.
+    #[inline]
+    fn floor_i32(&self, a: i32) -> i32 {
+        // One unsigned comparison takes in `0 <= a < LIMIT`.
+        if (a as u32) < Self::LIMIT as u32 && self.multiplier != 0 {
+            ((a as u32 * self.multiplier) >> self.shift) as i32
+        } else {
+            self.floor(i64::from(a)) as i32
+        }
+    }
+
+    /// The cell holding map point `p`, as [`GridGeometry::cell_of`].
+    #[inline]
+    fn cell_of(&self, geometry: &GridGeometry, p: (i32, i32)) -> (i32, i32) {
+        let axis = |v: i32, origin: i32| match v.checked_sub(origin) {
+            Some(offset) => self.floor_i32(offset),
+            None => self.floor(i64::from(v) - i64::from(origin)) as i32,
+        };
+        (
+            axis(p.0, geometry.origin_x_mm),
+            axis(p.1, geometry.origin_y_mm),
+        )
     }
 }
 
@@ -256,27 +397,47 @@ pub enum CellWalk {
 }
 
 /// Longest extent along either axis (and largest cell) walked in 32 bits: the walk's
-/// boundary distances stay below `(extent + cell) * extent`, which is under `2^29` here.
+/// numbers stay below `cell * extent` (see [`Walk`]), under `2^28` here.
 pub const SHORT_WALK_MM: i64 = 1 << 14;
 
 impl CellWalk {
     /// The walk from `from` to `to` (map millimetres) over `geometry`'s cells.
     pub fn new(geometry: &GridGeometry, from: (i32, i32), to: (i32, i32)) -> CellWalk {
-        let cell = (geometry.cell_mm as i64).max(1);
-        let start = (
-            from.0 as i64 - geometry.origin_x_mm as i64,
-            from.1 as i64 - geometry.origin_y_mm as i64,
-        );
-        let end = (
-            to.0 as i64 - geometry.origin_x_mm as i64,
-            to.1 as i64 - geometry.origin_y_mm as i64,
-        );
-        let short = |v: i64| v.abs() < SHORT_WALK_MM;
-        if short(end.0 - start.0) && short(end.1 - start.1) && short(cell) {
-            CellWalk::Short(Walk::new(cell, start, end))
-        } else {
-            CellWalk::Long(Walk::new(cell, start, end))
+        CellWalk::with_divider(
+            geometry,
+            &CellDivider::new(geometry.cell_mm as i64),
+            from,
+            to,
+        )
+    }
+
+    /// [`CellWalk::new`] with the cell size's divider already made.
+    fn with_divider(
+        geometry: &GridGeometry,
+        divider: &CellDivider,
+        from: (i32, i32),
+        to: (i32, i32),
+    ) -> CellWalk {
+        // A beam: everything in 32 bits from the start (64-bit arithmetic is several
+        // instructions per operation on the M0+).
+        let (ox, oy) = (geometry.origin_x_mm, geometry.origin_y_mm);
+        let short = |v: i32| i64::from(v).abs() < SHORT_WALK_MM;
+        if let (Some(fx), Some(fy), Some(tx), Some(ty)) = (
+            from.0.checked_sub(ox),
+            from.1.checked_sub(oy),
+            to.0.checked_sub(ox),
+            to.1.checked_sub(oy),
+        ) {
+            if let (Some(dx), Some(dy)) = (tx.checked_sub(fx), ty.checked_sub(fy)) {
+                if short(dx) && short(dy) && divider.cell < SHORT_WALK_MM {
+                    return CellWalk::Short(Walk::new(divider, (fx, fy), (tx, ty)));
+                }
+            }
         }
+        let (ox, oy) = (i64::from(ox), i64::from(oy));
+        let start = (i64::from(from.0) - ox, i64::from(from.1) - oy);
+        let end = (i64::from(to.0) - ox, i64::from(to.1) - oy);
+        CellWalk::Long(Walk::new(divider, start, end))
     }
 }
 
@@ -292,52 +453,89 @@ impl Iterator for CellWalk {
     }
 }
 
-/// The integers a [`Walk`] accumulates boundary distances in.
-pub trait WalkInt: Copy + Ord + core::ops::Mul<Output = Self> {
-    /// Larger than any distance reached: the boundary along an axis the segment does not
-    /// move on.
-    const NEVER: Self;
-    /// `self + other`, stopping at [`WalkInt::NEVER`].
-    fn add_capped(self, other: Self) -> Self;
+/// The integers a [`Walk`] compares boundary distances in.
+pub trait WalkInt:
+    Copy
+    + Ord
+    + core::ops::Add<Output = Self>
+    + core::ops::Sub<Output = Self>
+    + core::ops::Mul<Output = Self>
+{
+    /// Zero.
+    const ZERO: Self;
+    /// One.
+    const ONE: Self;
     /// `v` in this width; only called with values that fit.
     fn narrow(v: i64) -> Self;
+    /// `floor(self / cell)`.
+    fn cells(self, divider: &CellDivider) -> Self;
+    /// A cell index as the grid's `i32` (cells past `i32` wrap, as they always have: no
+    /// grid is that large).
+    fn index(self) -> i32;
+    /// `|self|`, as a count of cell boundaries.
+    fn count(self) -> u32;
 }
 
 impl WalkInt for i32 {
-    const NEVER: i32 = i32::MAX;
-    #[inline]
-    fn add_capped(self, other: i32) -> i32 {
-        self.saturating_add(other)
-    }
+    const ZERO: i32 = 0;
+    const ONE: i32 = 1;
     #[inline]
     fn narrow(v: i64) -> i32 {
         v as i32
     }
+    #[inline]
+    fn cells(self, divider: &CellDivider) -> i32 {
+        divider.floor_i32(self)
+    }
+    #[inline]
+    fn index(self) -> i32 {
+        self
+    }
+    #[inline]
+    fn count(self) -> u32 {
+        self.unsigned_abs()
+    }
 }
 
 impl WalkInt for i64 {
-    const NEVER: i64 = i64::MAX;
-    #[inline]
-    fn add_capped(self, other: i64) -> i64 {
-        self.saturating_add(other)
-    }
+    const ZERO: i64 = 0;
+    const ONE: i64 = 1;
     #[inline]
     fn narrow(v: i64) -> i64 {
         v
     }
+    #[inline]
+    fn cells(self, divider: &CellDivider) -> i64 {
+        divider.floor(self)
+    }
+    #[inline]
+    fn index(self) -> i32 {
+        self as i32
+    }
+    #[inline]
+    fn count(self) -> u32 {
+        self.unsigned_abs() as u32
+    }
 }
 
 /// One walk's state, its boundary distances in `T`.
+///
+/// The next vertical boundary is `next_column` along the segment and the next horizontal
+/// one `next_row` (each scaled by the other axis's extent, so they compare in integers).
+/// Only their order matters, so the walk keeps their difference: it stays between
+/// `-delta_row` and `delta_column` (each step moves it towards the other side), which
+/// bounds it by `cell * max(|dx|, |dy|)`: under `2^28` for a short walk, under `2^50`
+/// for any segment between `i32` points over cells under 65 m. Nothing can overflow.
 pub struct Walk<T> {
     column: i32,
     row: i32,
     step_column: i32,
     step_row: i32,
-    /// Distance to the next vertical boundary, scaled by `|dy|` (compared against `next_row`).
-    next_column: T,
-    /// Distance to the next horizontal boundary, scaled by `|dx|`.
-    next_row: T,
+    /// `next_column - next_row`: a column boundary comes first when negative.
+    diff: T,
+    /// How far apart column boundaries are (`cell * |dy|`).
     delta_column: T,
+    /// How far apart row boundaries are (`cell * |dx|`).
     delta_row: T,
     /// Column boundaries still to cross before the end cell.
     columns_left: u32,
@@ -349,46 +547,80 @@ pub struct Walk<T> {
 impl<T: WalkInt> Walk<T> {
     /// The walk from `start` to `end`, millimetres from the grid's corner. The cell size
     /// and the extent along each axis must fit `T`'s products (see [`SHORT_WALK_MM`]).
-    fn new(cell: i64, start: (i64, i64), end: (i64, i64)) -> Walk<T> {
+    fn new(divider: &CellDivider, start: (T, T), end: (T, T)) -> Walk<T> {
+        let cell = T::narrow(divider.cell);
         let (fx, fy) = start;
-        let (c0, r0) = (div_floor(fx, cell), div_floor(fy, cell));
-        let (c1, r1) = (div_floor(end.0, cell), div_floor(end.1, cell));
+        let (c0, r0) = (fx.cells(divider), fy.cells(divider));
+        let (c1, r1) = (end.0.cells(divider), end.1.cells(divider));
         let (dx, dy) = (end.0 - fx, end.1 - fy);
         // Distance from the start to the first boundary crossed along each axis (at most
         // one cell).
-        let to_column_edge = if dx > 0 {
-            (c0 + 1) * cell - fx
+        let to_column_edge = if dx > T::ZERO {
+            (c0 + T::ONE) * cell - fx
         } else {
             fx - c0 * cell
         };
-        let to_row_edge = if dy > 0 {
-            (r0 + 1) * cell - fy
+        let to_row_edge = if dy > T::ZERO {
+            (r0 + T::ONE) * cell - fy
         } else {
             fy - r0 * cell
         };
-        let (adx, ady) = (T::narrow(dx.abs()), T::narrow(dy.abs()));
-        let cell = T::narrow(cell);
+        let abs = |v: T| if v < T::ZERO { T::ZERO - v } else { v };
+        let (adx, ady) = (abs(dx), abs(dy));
         Walk {
-            column: c0 as i32,
-            row: r0 as i32,
-            step_column: if dx > 0 { 1 } else { -1 },
-            step_row: if dy > 0 { 1 } else { -1 },
-            // A boundary along an axis the segment does not move on is never reached.
-            next_column: if dx == 0 {
-                T::NEVER
+            column: c0.index(),
+            row: r0.index(),
+            step_column: if dx > T::ZERO { 1 } else { -1 },
+            step_row: if dy > T::ZERO { 1 } else { -1 },
+            // With no move along an axis there are no boundaries left on it to cross, and
+            // the difference is never consulted.
+            diff: if dx == T::ZERO || dy == T::ZERO {
+                T::ZERO
             } else {
-                T::narrow(to_column_edge) * ady
-            },
-            next_row: if dy == 0 {
-                T::NEVER
-            } else {
-                T::narrow(to_row_edge) * adx
+                to_column_edge * ady - to_row_edge * adx
             },
             delta_column: cell * ady,
             delta_row: cell * adx,
-            columns_left: (c1 - c0).unsigned_abs() as u32,
-            rows_left: (r1 - r0).unsigned_abs() as u32,
+            columns_left: (c1 - c0).count(),
+            rows_left: (r1 - r0).count(),
             started: false,
+        }
+    }
+}
+
+/// The axis a walk's step moved along.
+enum Axis {
+    Column,
+    Row,
+}
+
+impl<T: WalkInt> Walk<T> {
+    /// The cell the walk ends in.
+    fn end(&self) -> (i32, i32) {
+        (
+            self.column + self.step_column * self.columns_left as i32,
+            self.row + self.step_row * self.rows_left as i32,
+        )
+    }
+
+    /// Crosses the next boundary: the axis it moved along, or `None` in the end cell.
+    #[inline(always)]
+    fn advance(&mut self) -> Option<Axis> {
+        // Cross whichever boundary comes first along the segment; once one axis has
+        // reached the end cell's line only the other may move, so a segment that ends
+        // exactly on a corner still ends in its own cell.
+        if self.columns_left > 0 && (self.rows_left == 0 || self.diff < T::ZERO) {
+            self.columns_left -= 1;
+            self.column += self.step_column;
+            self.diff = self.diff + self.delta_column;
+            Some(Axis::Column)
+        } else if self.rows_left > 0 {
+            self.rows_left -= 1;
+            self.row += self.step_row;
+            self.diff = self.diff - self.delta_row;
+            Some(Axis::Row)
+        } else {
+            None
         }
     }
 }
@@ -402,23 +634,7 @@ impl<T: WalkInt> Iterator for Walk<T> {
             self.started = true;
             return Some((self.column, self.row));
         }
-        if self.columns_left == 0 && self.rows_left == 0 {
-            return None;
-        }
-        // Cross whichever boundary comes first along the segment; once one axis has
-        // reached the end cell's line only the other may move, so a segment that ends
-        // exactly on a corner still ends in its own cell.
-        let column_first = self.next_column < self.next_row;
-        if self.rows_left == 0 || (self.columns_left > 0 && column_first) {
-            self.columns_left -= 1;
-            self.column += self.step_column;
-            self.next_column = self.next_column.add_capped(self.delta_column);
-        } else {
-            self.rows_left -= 1;
-            self.row += self.step_row;
-            self.next_row = self.next_row.add_capped(self.delta_row);
-        }
-        Some((self.column, self.row))
+        self.advance().map(|_| (self.column, self.row))
     }
 }
 
@@ -453,6 +669,38 @@ mod tests {
     }
 
     #[test]
+    fn cell_divider_is_exact() {
+        // Every offset the shortcut takes, for every cell size up to 200 mm, and a spread
+        // of larger ones up to the shortcut's end; then across the fallback's edges.
+        let sizes = (1..=200).chain([255, 256, 257, 1000, 4095, 4096, 12_345, 65_535]);
+        for cell in sizes {
+            let d = CellDivider::new(cell);
+            let step = if cell <= 200 { 1 } else { 7 };
+            for a in (0..CellDivider::LIMIT).step_by(step) {
+                assert_eq!(d.floor(a), a.div_euclid(cell), "{a} / {cell}");
+            }
+            for a in [
+                -1,
+                -cell,
+                -cell - 1,
+                CellDivider::LIMIT,
+                1 << 40,
+                -(1 << 40),
+            ] {
+                assert_eq!(d.floor(a), a.div_euclid(cell), "{a} / {cell}");
+            }
+            for a in [0, 1, -1, 49, 50, -50, 32_767, 32_768, i32::MAX, i32::MIN] {
+                let expect = i64::from(a).div_euclid(cell) as i32;
+                assert_eq!(d.floor_i32(a), expect, "{a} / {cell} in 32 bits");
+            }
+        }
+        for cell in [0, -5, 1 << 16, 1 << 20] {
+            let d = CellDivider::new(cell);
+            assert_eq!(d.floor(12_345), 12_345i64.div_euclid(cell.max(1)));
+        }
+    }
+
+    #[test]
     fn short_walks_in_32_bits_equal_the_64_bit_walk() {
         // A fixed pseudo-random sequence (LCG) of segments up to the 32-bit limit.
         let mut state = 0x2545_f491_4f6c_dd1d_u64;
@@ -467,8 +715,13 @@ mod tests {
             let cell = 1 + next(200).abs();
             let start = (next(30_000), next(30_000));
             let end = (start.0 + next(limit), start.1 + next(limit));
-            let wide: std::vec::Vec<_> = Walk::<i64>::new(cell, start, end).collect();
-            let narrow: std::vec::Vec<_> = Walk::<i32>::new(cell, start, end).collect();
+            let divider = CellDivider::new(cell);
+            let wide: std::vec::Vec<_> = Walk::<i64>::new(&divider, start, end).collect();
+            let (start32, end32) = (
+                (start.0 as i32, start.1 as i32),
+                (end.0 as i32, end.1 as i32),
+            );
+            let narrow: std::vec::Vec<_> = Walk::<i32>::new(&divider, start32, end32).collect();
             assert_eq!(narrow, wide, "cell {cell} from {start:?} to {end:?}");
         }
         // And the dispatch: a beam takes the 32-bit walk, a segment past the limit does not.
@@ -480,6 +733,46 @@ mod tests {
             CellWalk::new(&GEO, (0, 0), (20_000, 0)),
             CellWalk::Long(_)
         ));
+    }
+
+    #[test]
+    fn beams_write_exactly_the_cells_their_walk_visits() {
+        // The flat-index loop against the plain one: every walk cell free (bar the hit
+        // cell), in or partly out of the grid, from a fixed pseudo-random sequence.
+        let mut state = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut next = |span: i32| {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            ((state >> 33) as i32).rem_euclid(2 * span + 1) - span
+        };
+        for _ in 0..3_000 {
+            let mut fast: GridMap<46, 46> = GridMap::new(GEO, Evidence::SEED);
+            let mut plain: GridMap<46, 46> = GridMap::new(GEO, Evidence::SEED);
+            let from = (next(1_400) + 850, next(1_400) + 850);
+            let to = (from.0 + next(2_500), from.1 + next(2_500));
+            let free_end = (to.0 - next(60), to.1 - next(60));
+            let hit = next(1) >= 0;
+            for _ in 0..3 {
+                let n = fast.insert_beam(from, free_end, to, hit);
+                let hit_cell = GEO.cell_of(to.0, to.1);
+                let mut m = 0;
+                for (c, r) in CellWalk::new(&GEO, from, free_end) {
+                    if !(hit && (c, r) == hit_cell) && plain.add(c, r, Evidence::SEED.miss) {
+                        m += 1;
+                    }
+                }
+                if hit && plain.add(hit_cell.0, hit_cell.1, Evidence::SEED.hit) {
+                    m += 1;
+                }
+                assert_eq!(n, m, "{from:?} -> {free_end:?} / {to:?}");
+            }
+            assert_eq!(
+                fast.rows(),
+                plain.rows(),
+                "{from:?} -> {free_end:?} / {to:?}"
+            );
+        }
     }
 
     #[test]

@@ -768,6 +768,7 @@ function main() {
     last_logs: logs.lines.slice(-8),
     emulator_messages: [...emuMessages].slice(0, 20).map(([k, n]) => `${n}x ${k}`),
   };
+  if (stepProfile) result.step_profile_worst = stepProfile.worst(process.env.BUGBOT_EMU_STEP_PROFILE === 'pc' ? 4000 : 15);
   if (stepProfile) result.step_profile = stepProfile.top(process.env.BUGBOT_EMU_STEP_PROFILE === 'pc' ? 2000 : 15, stepCycles.length);
   if (pcSamples) {
     result.pc_samples = [...pcSamples].sort((x, y) => y[1] - x[1]).slice(0, 12).map(([pc, n]) => `0x${pc.toString(16)} x${n}`);
@@ -790,6 +791,8 @@ function functionProfiler(elf) {
   // (the window stays open after it until the core sleeps).
   let pending = [];
   let marked = 0;
+  let worst = new Map();
+  let worstTotal = 0;
   const find = (pc) => {
     let a = 0, b = fns.length - 1;
     while (a <= b) {
@@ -804,9 +807,20 @@ function functionProfiler(elf) {
     add(pc, c) { pending.push(process.env.BUGBOT_EMU_STEP_PROFILE === 'pc' ? `0x${pc.toString(16)}` : find(pc), c); },
     mark() { marked = pending.length; },
     commit() {
-      for (let i = 0; i < marked; i += 2) cycles.set(pending[i], (cycles.get(pending[i]) || 0) + pending[i + 1]);
+      const mine = new Map();
+      let total = 0;
+      for (let i = 0; i < marked; i += 2) {
+        cycles.set(pending[i], (cycles.get(pending[i]) || 0) + pending[i + 1]);
+        mine.set(pending[i], (mine.get(pending[i]) || 0) + pending[i + 1]);
+        total += pending[i + 1];
+      }
+      if (total > worstTotal) { worstTotal = total; worst = mine; }
       pending = [];
       marked = 0;
+    },
+    /// The costliest step's cycles by function.
+    worst(n) {
+      return [...worst].sort((x, y) => y[1] - x[1]).slice(0, n).map(([f, c]) => `${c} cycles ${f}`);
     },
     top(n, steps) {
       return [...cycles].sort((x, y) => y[1] - x[1]).slice(0, n)
