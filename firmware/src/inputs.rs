@@ -9,7 +9,9 @@
 //!   between two ticks; a `Channel` would need sizing for the worst burst and a drain loop.
 //! - **Depth** and **camera tags** are *snapshots*: a newer scan or picture supersedes the
 //!   older one, so a [`Signal`] ("the latest value wins") fits. The tick uses `try_take`,
-//!   so a scan is mapped once and a tick with no new scan sees `None`.
+//!   so a scan is mapped once and a tick with no new scan sees `None`. A picture carries
+//!   the instant its frame arrived ([`TagPicture`]): the camera keeps its own schedule, so
+//!   the tick tells the core how old the tags are.
 //!
 //! In every case "nothing since the last tick" comes out as `None`, which is exactly what
 //! [`slam_core::SensorFrame`] calls stale, and the core counts it. Flow is also stale when
@@ -27,6 +29,7 @@ use core::cell::Cell;
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::blocking_mutex::Mutex;
 use embassy_sync::signal::Signal;
+use embassy_time::Instant;
 use slam_core::{DepthScan, FlowDelta, GyroRate, TagDetections};
 
 /// Flow since the tick last looked: the sum of good reads, and whether a read failed.
@@ -161,8 +164,18 @@ impl YawIntegrator {
 /// The newest depth scan not yet mapped.
 pub type DepthInbox = Signal<CriticalSectionRawMutex, DepthScan>;
 
-/// The tags in the camera's newest picture not yet used.
-pub type TagInbox = Signal<CriticalSectionRawMutex, TagDetections>;
+/// One camera picture's tags and when they reached the robot.
+#[derive(Clone, Copy)]
+pub struct TagPicture {
+    /// The tags read (empty: none in view).
+    pub tags: TagDetections,
+    /// When the camera task took the picture's frame from the UART: up to a tick before
+    /// the SLAM tick that uses it, which sets the frame's `tags_age_us` from it.
+    pub received: Instant,
+}
+
+/// The camera's newest picture not yet used.
+pub type TagInbox = Signal<CriticalSectionRawMutex, TagPicture>;
 
 /// Every input of the SLAM tick, one inbox per sensor, plus the gyro's own yaw for the
 /// motion task.

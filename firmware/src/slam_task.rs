@@ -174,8 +174,11 @@ pub async fn slam_task(watchdog: Peri<'static, WATCHDOG>, inputs: &'static Input
         frame.flow = inputs.flow.take();
         frame.gyro = inputs.gyro.take();
         frame.depth = inputs.depth.try_take();
-        if let Some(tags) = inputs.tags.try_take() {
-            frame.tags = tags;
+        if let Some(picture) = inputs.tags.try_take() {
+            frame.tags = picture.tags;
+            // How long before this tick the picture arrived; one that arrived after the
+            // tick's instant (while this frame was being gathered) counts as taken at it.
+            frame.tags_age_us = micros(started.saturating_duration_since(picture.received));
         }
 
         let report = slam.step(&frame);
@@ -256,7 +259,7 @@ fn log(report: &StepReport, health: &LoopCounters) {
         c.gyro_stale,
         c.depth_stale,
         c.fixes_taken,
-        c.fixes_rejected_geometry + c.fixes_rejected_gate,
+        c.fixes_rejected_geometry + c.fixes_rejected_gate + c.fixes_rejected_too_old,
         c.beams_mapped,
     );
     defmt::info!("health: {}", HEALTH.sensor_health());

@@ -4,7 +4,8 @@
 //! # Scenario files
 //!
 //! A scenario is TOML, in millimetres, degrees and seconds (see
-//! `host-sim/scenarios/seed-mat.toml`). Every field is required; unknown fields are refused.
+//! `host-sim/scenarios/seed-mat.toml`). Every field is required unless marked optional;
+//! unknown fields are refused.
 //!
 //! | table / field | meaning |
 //! |---|---|
@@ -18,6 +19,7 @@
 //! | `sensors.flow` `um_per_count`, `scale_error`, `noise_counts`, `quality` | flow counts at 100 Hz; the firmware's calibration, the true scale error, noise per reading, surface quality |
 //! | `sensors.gyro` `bias_dps`, `scale_error`, `noise_dps` | yaw rate at 200 Hz: residual bias, scale error, noise per sample |
 //! | `sensors.camera` `width_px`, `focal_px`, `fov_deg`, `max_range_mm`, `max_incidence_deg`, `pixel_noise_px`, `distance_noise_mm` | tag detections; tags hidden by walls or seen too obliquely are not read |
+//! | `sensors.camera` `latency_ms` (optional, 0 when absent) | the tags are read from where the robot was this long before the tick, and the frame says how old they are |
 //! | `grid` `cell_mm`, `origin_x_mm`, `origin_y_mm`, `max_range_mm` | the core's grid and the mapper's range limit |
 //! | `[[route]]` `action = "turn"`, `degrees`, `rate_dps` | turn on the spot until the true heading has turned that far |
 //! | `[[route]]` `action = "drive"`, `seconds`, `speed_mm_s` | drive straight for `int(seconds * 10)` ticks |

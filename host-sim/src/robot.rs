@@ -9,6 +9,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use slam_core::{DepthScan, FlowDelta, GyroRate, TagDetection, TagDetections, BEAMS};
+use std::collections::VecDeque;
 
 /// What the motors are asked to do.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -32,6 +33,8 @@ pub struct TruePose {
 
 /// Physics sub-step: the gyro's 200 Hz sample period, in seconds.
 const SUBSTEP_S: f64 = 0.005;
+/// The sub-step in microseconds, for whole-number arithmetic on latencies.
+const SUBSTEP_US: u64 = 5_000;
 /// The flow sensor is read every other sub-step (100 Hz).
 const FLOW_EVERY: u32 = 2;
 
@@ -81,19 +84,25 @@ pub struct Robot {
     gyro_sum_mdps: i64,
     gyro_samples: i64,
     last_gyro_mdps: i32,
+    /// The camera's latency in microseconds (the scenario's, rounded).
+    camera_latency_us: u64,
+    /// True poses at the last sub-steps, newest last (the newest is `truth`), enough to
+    /// look `camera_latency_us` back; before the start the robot stood at its start.
+    past: VecDeque<TruePose>,
 }
 
 impl Robot {
     /// A robot at the scenario's start, noise seeded by `seed`.
     pub fn new(scenario: &Scenario, seed: u64) -> Robot {
+        let start = TruePose {
+            x_mm: scenario.start.x_mm,
+            y_mm: scenario.start.y_mm,
+            heading_deg: scenario.start.heading_deg,
+        };
         Robot {
             world: World::new(scenario),
             scenario: scenario.clone(),
-            truth: TruePose {
-                x_mm: scenario.start.x_mm,
-                y_mm: scenario.start.y_mm,
-                heading_deg: scenario.start.heading_deg,
-            },
+            truth: start,
             time_s: 0.0,
             substeps: 0,
             rng: Streams::new(seed),
@@ -103,6 +112,8 @@ impl Robot {
             gyro_sum_mdps: 0,
             gyro_samples: 0,
             last_gyro_mdps: 0,
+            camera_latency_us: camera_latency_us(scenario),
+            past: VecDeque::from([start]),
         }
     }
 
@@ -142,6 +153,7 @@ impl Robot {
             self.flow_pending_mm.0 += dist;
             self.substeps += 1;
             self.time_s = self.substeps as f64 * SUBSTEP_S;
+            self.remember_truth();
 
             let g = &self.scenario.sensors.gyro;
             let rate = command.turn_dps * (1.0 + g.scale_error)
@@ -155,6 +167,45 @@ impl Robot {
                 self.read_flow();
             }
         }
+    }
+
+    /// Keeps the newest true pose, and as many before it as the camera's latency reaches.
+    fn remember_truth(&mut self) {
+        let keep = (self.camera_latency_us / SUBSTEP_US) as usize + 2;
+        self.past.push_back(self.truth);
+        while self.past.len() > keep {
+            self.past.pop_front();
+        }
+    }
+
+    /// The true pose `age_us` ago, linear between the two sub-steps around that moment;
+    /// before the start, the start.
+    pub fn truth_ago(&self, age_us: u64) -> TruePose {
+        if age_us == 0 {
+            return self.truth;
+        }
+        let steps = (age_us / SUBSTEP_US) as usize;
+        let frac = (age_us % SUBSTEP_US) as f64 / SUBSTEP_US as f64;
+        // `past` ends with the newest pose; `back(k)` is the pose k sub-steps ago.
+        let back = |k: usize| {
+            let newest = self.past.len().saturating_sub(1);
+            self.past
+                .get(newest.saturating_sub(k))
+                .copied()
+                .unwrap_or(self.truth)
+        };
+        let (later, earlier) = (back(steps), back(steps + 1));
+        let mix = |a: f64, b: f64| a + (b - a) * frac;
+        TruePose {
+            x_mm: mix(later.x_mm, earlier.x_mm),
+            y_mm: mix(later.y_mm, earlier.y_mm),
+            heading_deg: mix(later.heading_deg, earlier.heading_deg),
+        }
+    }
+
+    /// How old the camera's pictures are when read, microseconds (the scenario's latency).
+    pub fn camera_latency_us(&self) -> u64 {
+        self.camera_latency_us
     }
 
     /// One 100 Hz flow reading: the floor moved since the last one, in counts, with the
@@ -224,15 +275,16 @@ impl Robot {
         scan
     }
 
-    /// The tags the camera reads from the true pose.
+    /// The tags the camera reads from the true pose of the scenario's latency ago.
     pub fn read_tags(&mut self) -> TagDetections {
         let c = self.scenario.sensors.camera.clone();
-        let origin = Vec2::new(self.truth.x_mm, self.truth.y_mm);
+        let pose = self.truth_ago(self.camera_latency_us);
+        let origin = Vec2::new(pose.x_mm, pose.y_mm);
         let mut out = TagDetections::default();
         for tag in self.world.tags().to_vec() {
             let (dx, dy) = (tag.centre.x - origin.x, tag.centre.y - origin.y);
             let dist = dx.hypot(dy);
-            let bearing = wrap_deg(dx.atan2(dy).to_degrees() - self.truth.heading_deg);
+            let bearing = wrap_deg(dx.atan2(dy).to_degrees() - pose.heading_deg);
             // Angle between the tag's face normal and the direction back to the camera.
             let incidence = ((-dx * tag.normal.x - dy * tag.normal.y) / dist.max(1e-9))
                 .clamp(-1.0, 1.0)
@@ -265,7 +317,68 @@ impl Robot {
     }
 }
 
+/// A scenario's camera latency in whole microseconds (validated to `0..=1000` ms).
+fn camera_latency_us(scenario: &Scenario) -> u64 {
+    (scenario.sensors.camera.latency_ms * 1000.0)
+        .round()
+        .clamp(0.0, u32::MAX as f64) as u64
+}
+
 /// An angle in degrees wrapped into [-180, 180).
 pub fn wrap_deg(deg: f64) -> f64 {
     (deg + 180.0).rem_euclid(360.0) - 180.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scenario(latency_ms: f64) -> Scenario {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios/seed-mat.toml");
+        let mut s = match Scenario::load(std::path::Path::new(path)) {
+            Ok(s) => s,
+            Err(e) => panic!("the shipped scenario must load: {e}"),
+        };
+        s.sensors.camera.latency_ms = latency_ms;
+        s
+    }
+
+    const TURN_AND_DRIVE: Command = Command {
+        speed_mm_s: 86.0,
+        turn_dps: 31.5,
+    };
+
+    #[test]
+    fn truth_ago_is_the_truth_back_then() {
+        let mut late = Robot::new(&scenario(100.0), 1);
+        let mut early = Robot::new(&scenario(100.0), 1);
+        // Before the start the robot stood at its start.
+        assert_eq!(late.truth_ago(100_000), late.truth());
+        late.advance(0.05, TURN_AND_DRIVE);
+        assert_eq!(late.truth_ago(100_000), early.truth());
+        late.advance(0.45, TURN_AND_DRIVE);
+        early.advance(0.4, TURN_AND_DRIVE);
+        assert_eq!(late.truth_ago(100_000), early.truth());
+        assert_eq!(late.truth_ago(0), late.truth());
+        // Between sub-steps: half way between the poses 5 ms apart.
+        let (a, b) = (late.truth_ago(100_000), late.truth_ago(105_000));
+        let mid = late.truth_ago(102_500);
+        assert!((mid.x_mm - (a.x_mm + b.x_mm) / 2.0).abs() < 1e-9);
+        assert!((mid.heading_deg - (a.heading_deg + b.heading_deg) / 2.0).abs() < 1e-9);
+        assert!(b.heading_deg < a.heading_deg, "older is less turned");
+    }
+
+    #[test]
+    fn the_camera_sees_from_the_pose_of_its_latency_ago() {
+        let mut slow = Robot::new(&scenario(100.0), 1);
+        let mut now = Robot::new(&scenario(0.0), 1);
+        slow.advance(1.5, TURN_AND_DRIVE);
+        now.advance(1.4, TURN_AND_DRIVE);
+        // The same noise streams, so the same detections when the poses agree.
+        let seen = slow.read_tags();
+        assert!(!seen.is_empty(), "tag 11 is in view");
+        assert_eq!(seen, now.read_tags());
+        now.advance(0.1, TURN_AND_DRIVE);
+        assert_ne!(slow.read_tags(), now.read_tags());
+    }
 }

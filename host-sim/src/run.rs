@@ -57,6 +57,18 @@ impl FromStr for PoseMode {
     }
 }
 
+/// What the core is told about how old the camera's pictures are.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum TagAge {
+    /// Their true age (the scenario's `sensors.camera.latency_ms`), as the firmware
+    /// measures it: the core places each fix at the moment of the picture.
+    #[default]
+    Reported,
+    /// Always 0, whatever the latency: the core takes each fix as the pose at the tick,
+    /// as it did before frames carried an age. For measuring what the compensation buys.
+    Hidden,
+}
+
 /// The figures the seed quotes, and a few more.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Figures {
@@ -74,7 +86,7 @@ pub struct Figures {
     pub out_of_place: u32,
     /// Tag fixes taken.
     pub fixes: u32,
-    /// Tag fixes rejected (geometry or gate).
+    /// Tag fixes rejected (geometry, gate, or a picture too old to place).
     pub fixes_rejected: u32,
     /// Time of the first fix, seconds; `None` if there was none.
     pub first_fix_s: Option<f64>,
@@ -185,6 +197,27 @@ pub fn run_with_telemetry(
     seed: u64,
     telemetry: Option<&mut TelemetryWriter>,
 ) -> Result<RunOutput, RunError> {
+    run_sized_to_fit(scenario, mode, seed, TagAge::Reported, telemetry)
+}
+
+/// [`run`], telling the core the pictures' age as `tag_age` says.
+pub fn run_with_tag_age(
+    scenario: &Scenario,
+    mode: PoseMode,
+    seed: u64,
+    tag_age: TagAge,
+) -> Result<RunOutput, RunError> {
+    run_sized_to_fit(scenario, mode, seed, tag_age, None)
+}
+
+/// Runs on the smallest built-in grid that holds the scenario's world.
+fn run_sized_to_fit(
+    scenario: &Scenario,
+    mode: PoseMode,
+    seed: u64,
+    tag_age: TagAge,
+    telemetry: Option<&mut TelemetryWriter>,
+) -> Result<RunOutput, RunError> {
     let cell = scenario.grid.cell_mm.max(1) as f64;
     let (mut max_x, mut max_y) = (f64::MIN, f64::MIN);
     for p in scenario.world.walls.iter().flatten() {
@@ -195,9 +228,9 @@ pub fn run_with_telemetry(
     let columns = ((max_x - scenario.grid.origin_x_mm as f64) / cell).ceil() as i64 + 1;
     let rows = ((max_y - scenario.grid.origin_y_mm as f64) / cell).ceil() as i64 + 1;
     if columns <= 46 && rows <= 46 {
-        run_sized::<46, 46>(scenario, mode, seed, telemetry)
+        run_sized::<46, 46>(scenario, mode, seed, tag_age, telemetry)
     } else if columns <= 206 && rows <= 206 {
-        run_sized::<206, 206>(scenario, mode, seed, telemetry)
+        run_sized::<206, 206>(scenario, mode, seed, tag_age, telemetry)
     } else {
         Err(RunError::GridTooLarge { columns, rows })
     }
@@ -207,6 +240,7 @@ fn run_sized<const W: usize, const H: usize>(
     scenario: &Scenario,
     mode: PoseMode,
     seed: u64,
+    tag_age: TagAge,
     mut telemetry: Option<&mut TelemetryWriter>,
 ) -> Result<RunOutput, RunError> {
     let mut config = slam_config(scenario);
@@ -223,6 +257,10 @@ fn run_sized<const W: usize, const H: usize>(
     let mut out_of_place_pct = 0.0;
     let mut first_fix: Option<usize> = None;
     let dt_us = (TICK_S * 1e6) as u32;
+    let tags_age_us = match tag_age {
+        TagAge::Reported => u32::try_from(robot.camera_latency_us()).unwrap_or(u32::MAX),
+        TagAge::Hidden => 0,
+    };
     while let Some(command) = route.command() {
         if robot.time_s() > MAX_RUN_S {
             break;
@@ -235,6 +273,7 @@ fn run_sized<const W: usize, const H: usize>(
             gyro,
             depth: Some(robot.read_depth()),
             tags: robot.read_tags(),
+            tags_age_us,
             external_pose: (mode == PoseMode::Truth).then(|| to_core_pose(&truth)),
         };
         let report = slam.step(&frame);
@@ -283,7 +322,9 @@ fn run_sized<const W: usize, const H: usize>(
         occupied: final_counts.occupied,
         out_of_place: final_counts.out_of_place,
         fixes: counters.fixes_taken,
-        fixes_rejected: counters.fixes_rejected_gate + counters.fixes_rejected_geometry,
+        fixes_rejected: counters.fixes_rejected_gate
+            + counters.fixes_rejected_geometry
+            + counters.fixes_rejected_too_old,
         first_fix_s: first_fix.map(|i| i as f64 * TICK_S),
         final_error_cm: errors.final_error_cm,
         max_error_after_first_fix_cm: errors.max_error_after_first_fix_cm,

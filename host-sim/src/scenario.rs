@@ -155,6 +155,11 @@ pub struct Camera {
     pub pixel_noise_px: f64,
     /// Standard deviation of the distance, millimetres.
     pub distance_noise_mm: f64,
+    /// How old a picture's tags are when the tick uses them, milliseconds: the camera
+    /// reports what it saw from the pose this long before, and the frame carries the age.
+    /// Optional: 0 (the picture taken at the tick) when absent.
+    #[serde(default)]
+    pub latency_ms: f64,
 }
 
 /// The core's grid.
@@ -268,6 +273,11 @@ impl Check {
 /// Largest coordinate or length a scenario may use, millimetres (a 100 m hall).
 const MAX_MM: f64 = 100_000.0;
 
+/// Longest camera latency a scenario may ask for, milliseconds: a second of pictures is
+/// well past what the core's pose history places (it refuses them as too old), so
+/// longer ones test nothing more.
+pub const MAX_CAMERA_LATENCY_MS: f64 = 1000.0;
+
 impl Scenario {
     /// Reads and checks a scenario file.
     pub fn load(path: &Path) -> Result<Scenario, ScenarioError> {
@@ -364,6 +374,12 @@ impl Scenario {
             s.camera.distance_noise_mm,
             0.0,
             1000.0,
+        );
+        c.range(
+            "sensors.camera.latency_ms",
+            s.camera.latency_ms,
+            0.0,
+            MAX_CAMERA_LATENCY_MS,
         );
 
         c.range("grid.cell_mm", self.grid.cell_mm as f64, 5.0, 1000.0);

@@ -11,7 +11,7 @@
 //! | `{"cmd":"flow"}` | `{"forward_counts","right_counts","squal"}`: counts since the last flow read |
 //! | `{"cmd":"gyro"}` | `{"rate_mdps"}`: the newest 200 Hz yaw rate sample, bias and noise included |
 //! | `{"cmd":"depth"}` | `{"ranges_mm":[8 x (mm or null)]}`: the 8 beams, left to right |
-//! | `{"cmd":"tags"}` | `{"tags":[{"id","cx_px","distance_mm"}]}`: what the camera reads now |
+//! | `{"cmd":"tags"}` | `{"tags":[{"id","cx_px","distance_mm"}]}`: what the camera reads now, from where the robot was `sensors.camera.latency_ms` ago (the firmware only knows when the frame arrived) |
 //! | `{"cmd":"truth"}` | as `advance`, without moving |
 //!
 //! A request that cannot be understood gets `{"error": "..."}` and the session goes on.

@@ -180,3 +180,33 @@ fn garbage_file_is_refused() {
         "scenario is not valid",
     );
 }
+
+#[test]
+fn camera_latency_is_checked() {
+    let with = |value: &str| {
+        seed_text().replace(
+            "distance_noise_mm = 2\n",
+            &format!("distance_noise_mm = 2\nlatency_ms = {value}\n"),
+        )
+    };
+    refused("latency-neg.toml", &with("-5"), "sensors.camera.latency_ms");
+    refused(
+        "latency-big.toml",
+        &with("5000"),
+        "sensors.camera.latency_ms",
+    );
+    refused(
+        "latency-nan.toml",
+        &with("nan"),
+        "sensors.camera.latency_ms",
+    );
+    refused("latency-text.toml", &with("\"slow\""), "latency_ms");
+    // A good value runs.
+    let path = scratch("latency-ok.toml", &with("100"));
+    let out = host_sim(&["run", path.to_str().unwrap_or_default(), "--json"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}

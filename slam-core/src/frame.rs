@@ -107,6 +107,11 @@ pub struct SensorFrame {
     pub depth: Option<DepthScan>,
     /// Tags the camera read in its newest picture (empty when none, or stale).
     pub tags: TagDetections,
+    /// How long before this tick's instant that picture was taken, in microseconds (0: at
+    /// the tick). The camera keeps its own schedule; the core places the fix at that moment
+    /// and carries it forward by the odometry since, and refuses pictures older than its
+    /// pose history ([`crate::history::HISTORY_LEN`] ticks).
+    pub tags_age_us: u32,
     /// A pose from outside (a lab's overhead camera, the simulator's truth): when present it
     /// replaces odometry and tag fixes, and the scan is mapped at it.
     pub external_pose: Option<crate::Pose>,
@@ -128,6 +133,7 @@ impl SensorFrame {
                 }; MAX_TAGS],
                 len: 0,
             },
+            tags_age_us: 0,
             external_pose: None,
         }
     }

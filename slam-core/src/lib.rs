@@ -15,6 +15,7 @@ pub mod angle;
 pub mod frame;
 pub mod framing;
 pub mod grid;
+pub mod history;
 pub mod odometry;
 pub mod pose;
 pub mod slam;

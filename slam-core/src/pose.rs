@@ -48,6 +48,50 @@ impl Pose {
     }
 }
 
+/// The rigid motion of the map plane that carries one pose onto another: a turn by the
+/// difference of their headings about the first pose's place, then the shift between them.
+///
+/// A tag fix of an old picture says where the robot was when the picture was taken.
+/// Carrying the current pose (and the poses remembered since) by the same motion keeps the
+/// odometry travelled since that moment, turned into the fix's heading.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct RigidMotion {
+    from: Pose,
+    to: Pose,
+    turn: Angle,
+    sin: i32,
+    cos: i32,
+}
+
+impl RigidMotion {
+    /// The motion that carries `from` exactly onto `to`.
+    pub fn carrying(from: &Pose, to: &Pose) -> RigidMotion {
+        let turn = to.heading - from.heading;
+        RigidMotion {
+            from: *from,
+            to: *to,
+            turn,
+            sin: turn.sin(),
+            cos: turn.cos(),
+        }
+    }
+
+    /// `pose` carried by the motion. `from` itself lands exactly on `to`, bit for bit.
+    pub fn apply(&self, pose: &Pose) -> Pose {
+        let dx = pose.x_um as i64 - self.from.x_um as i64;
+        let dy = pose.y_um as i64 - self.from.y_um as i64;
+        // Turning clockwise (the heading convention) by `t` takes the nose direction
+        // (sin h, cos h) to (sin(h + t), cos(h + t)): (x, y) -> (x cos t + y sin t, y cos t - x sin t).
+        let x = self.to.x_um as i64 + mul_q16(dx, self.cos) + mul_q16(dy, self.sin);
+        let y = self.to.y_um as i64 + mul_q16(dy, self.cos) - mul_q16(dx, self.sin);
+        Pose {
+            x_um: x.clamp(i32::MIN as i64, i32::MAX as i64) as i32,
+            y_um: y.clamp(i32::MIN as i64, i32::MAX as i64) as i32,
+            heading: pose.heading + self.turn,
+        }
+    }
+}
+
 /// `a / b` rounded half away from zero; `b` must be positive.
 pub(crate) const fn round_div(a: i64, b: i64) -> i64 {
     if a >= 0 {
@@ -86,14 +130,48 @@ pub(crate) const fn div_floor(a: i64, b: i64) -> i64 {
 }
 
 /// `a * b >> 16` rounded to nearest, in 64 bits: multiplies a length by a Q16 factor.
+///
+/// A beam's length (under 16 m) times a sine or cosine (at most 1.0) fits in 32 bits, which
+/// the Cortex-M0+ multiplies in one instruction instead of a 64-bit library call.
 pub(crate) const fn mul_q16(a: i64, b: i32) -> i64 {
-    (a * b as i64 + (1 << 15)) >> 16
+    if a > -(1 << 14) && a < (1 << 14) && b >= -(1 << 16) && b <= (1 << 16) {
+        ((a as i32 * b + (1 << 15)) >> 16) as i64
+    } else {
+        (a * b as i64 + (1 << 15)) >> 16
+    }
 }
 
 /// `sqrt(x^2 + y^2)` rounded down, without overflow for any inputs (saturates at `u64::MAX`).
 pub(crate) fn hypot(x: i64, y: i64) -> u64 {
-    let (x, y) = (x.unsigned_abs() as u128, y.unsigned_abs() as u128);
+    let (x, y) = (x.unsigned_abs(), y.unsigned_abs());
+    if x < 1 << 15 && y < 1 << 15 {
+        // Millimetre lengths on the mat: the squares' sum fits 31 bits, and the M0+ takes
+        // a 32-bit root several times faster than a 128-bit square and a 64-bit root.
+        return u64::from(isqrt32((x * x + y * y) as u32));
+    }
+    let (x, y) = (x as u128, y as u128);
     isqrt((x * x + y * y).min(u64::MAX as u128) as u64)
+}
+
+/// [`isqrt`] for 32-bit `n`.
+fn isqrt32(n: u32) -> u32 {
+    let mut rem = n;
+    let mut root = 0u32;
+    let mut bit = if n == 0 {
+        0
+    } else {
+        1u32 << ((31 - n.leading_zeros()) & !1)
+    };
+    while bit != 0 {
+        if rem >= root + bit {
+            rem -= root + bit;
+            root = (root >> 1) + bit;
+        } else {
+            root >>= 1;
+        }
+        bit >>= 2;
+    }
+    root
 }
 
 /// Integer square root, rounded down.
@@ -124,6 +202,57 @@ pub(crate) fn isqrt(n: u64) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn roots_in_32_bits_match_64() {
+        for n in (0..70_000u32).chain([u32::MAX, u32::MAX - 1, 1 << 30, (1 << 31) - 1]) {
+            assert_eq!(u64::from(isqrt32(n)), isqrt(u64::from(n)), "{n}");
+        }
+        let edge = (1 << 15) - 1;
+        for (x, y) in [
+            (edge, edge),
+            (edge + 1, 3),
+            (-edge, 0),
+            (3, 4),
+            (-30_000, 40_000),
+        ] {
+            let exact = ((x * x + y * y) as f64).sqrt().floor() as u64;
+            assert_eq!(hypot(x, y), exact, "({x}, {y})");
+        }
+    }
+
+    #[test]
+    fn q16_products_match_64_bit_on_both_sides_of_the_32_bit_edge() {
+        let one = 1 << 16;
+        for a in [
+            0i64,
+            1,
+            -1,
+            4_000,
+            -4_000,
+            (1 << 14) - 1,
+            -(1 << 14) + 1,
+            1 << 14,
+            -(1 << 14),
+            1 << 30,
+        ] {
+            for b in [
+                0,
+                1,
+                -1,
+                32_768,
+                -32_768,
+                one,
+                -one,
+                one + 1,
+                -one - 1,
+                i32::MAX,
+                i32::MIN,
+            ] {
+                assert_eq!(mul_q16(a, b), (a * b as i64 + (1 << 15)) >> 16, "{a} x {b}");
+            }
+        }
+    }
 
     #[test]
     fn divisions_match_64_bit_on_both_sides_of_the_32_bit_edge() {
@@ -183,6 +312,54 @@ mod tests {
             let r = isqrt(n);
             assert!(r * r <= n && (r + 1) * (r + 1) > n, "isqrt({n}) = {r}");
         }
+    }
+
+    #[test]
+    fn rigid_motion_carries_from_onto_to_exactly() {
+        let from = Pose {
+            x_um: 812_345,
+            y_um: -1_234_567,
+            heading: Angle::from_bits(0xDEAD_BEEF),
+        };
+        let to = Pose {
+            x_um: 700_001,
+            y_um: 1_950_003,
+            heading: Angle::from_bits(0x1234_5678),
+        };
+        assert_eq!(RigidMotion::carrying(&from, &to).apply(&from), to);
+        assert_eq!(RigidMotion::carrying(&from, &from).apply(&to), to);
+    }
+
+    #[test]
+    fn rigid_motion_turns_clockwise_like_headings() {
+        // Believed at the origin facing +y, 100 mm up the mat since the picture; the fix
+        // says the robot faced +x then. The 100 mm were driven along +x, and it faces +x.
+        let then = Pose::from_mm_mdeg(0, 0, 0);
+        let now = Pose::from_mm_mdeg(0, 100, 0);
+        let fix = Pose::from_mm_mdeg(500, 500, 90_000);
+        let carried = RigidMotion::carrying(&then, &fix).apply(&now);
+        assert_eq!(carried, Pose::from_mm_mdeg(600, 500, 90_000));
+        // A point to the robot's right (+x when facing +y) ends up to its right again (-y
+        // when facing +x), and a quarter turn back undoes it.
+        let right = Pose::from_mm_mdeg(100, 0, 0);
+        let carried = RigidMotion::carrying(&then, &fix).apply(&right);
+        assert_eq!(carried, Pose::from_mm_mdeg(500, 400, 90_000));
+        let back = RigidMotion::carrying(&fix, &then).apply(&carried);
+        assert_eq!(back, right);
+    }
+
+    #[test]
+    fn rigid_motion_across_north() {
+        // Headings either side of 0/360: a 4 degree turn anticlockwise across north.
+        let then = Pose::from_mm_mdeg(1000, 1000, 2_000);
+        let fix = Pose::from_mm_mdeg(1000, 1000, -2_000);
+        let now = Pose::from_mm_mdeg(1000, 1100, 359_000);
+        let carried = RigidMotion::carrying(&then, &fix).apply(&now);
+        assert_eq!(carried.heading.to_millidegrees(), -5_000);
+        // 100 mm along +y, turned 4 degrees anticlockwise: x -6.98 mm, y +99.76 mm.
+        assert_eq!((carried.x_mm(), carried.y_mm()), (993, 1100));
+        assert!((carried.x_um - 993_024).abs() <= 2, "{carried:?}");
+        assert!((carried.y_um - 1_099_756).abs() <= 2, "{carried:?}");
     }
 
     #[test]

@@ -3,8 +3,9 @@
 use crate::angle::Angle;
 use crate::frame::{DepthScan, SensorFrame, BEAMS};
 use crate::grid::{Evidence, GridGeometry, GridMap};
+use crate::history::PoseHistory;
 use crate::odometry::{self, OdometryConfig};
-use crate::pose::{mul_q16, Pose};
+use crate::pose::{mul_q16, Pose, RigidMotion};
 use crate::tagfix::{self, CameraConfig, FixConfig, FixOutcome, FixRejection, KnownTag, TagMap};
 
 /// The depth sensor's fan and the mapper's range limit.
@@ -143,6 +144,9 @@ pub struct Counters {
     pub fixes_rejected_geometry: u32,
     /// Fixes thrown away because they disagreed with the prediction.
     pub fixes_rejected_gate: u32,
+    /// Pictures with two known tags not used because they were older than the pose
+    /// history reaches.
+    pub fixes_rejected_too_old: u32,
     /// Fixes taken against the gate after too many rejections in a row.
     pub relocalisations: u32,
     /// Beams written into the map.
@@ -190,6 +194,8 @@ pub struct StepReport {
 pub struct Slam<const W: usize, const H: usize> {
     config: SlamConfig,
     pose: Pose,
+    /// The poses of the last few ticks, this one's included, to place old pictures.
+    history: PoseHistory,
     map: GridMap<W, H>,
     counters: Counters,
     gate_rejections_in_a_row: u8,
@@ -202,6 +208,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         Ok(Slam {
             config,
             pose: start,
+            history: PoseHistory::new(start),
             map: GridMap::new(config.geometry, config.evidence),
             counters: Counters::default(),
             gate_rejections_in_a_row: 0,
@@ -211,6 +218,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
     /// Starts over in place (no large move on a small stack): empty map, pose `start`.
     pub fn reset(&mut self, start: Pose) {
         self.pose = start;
+        self.history = PoseHistory::new(start);
         self.map.clear();
         self.counters = Counters::default();
         self.gate_rejections_in_a_row = 0;
@@ -239,8 +247,10 @@ impl<const W: usize, const H: usize> Slam<W, H> {
     /// One tick: predict the pose from odometry, correct it from known tags, map the scan
     /// at the corrected pose.
     ///
-    /// The tag fix comes before mapping (as in the seed) because the camera picture and
-    /// the scan are of the same moment: the corrected pose is the better one to map at.
+    /// The tag fix comes before mapping (as in the seed) so the scan is mapped at the
+    /// corrected pose. A picture `frame.tags_age_us` old gives the pose of that moment: it
+    /// is gated against the pose believed then (from the last ticks' poses) and carried
+    /// to now by the motion believed since. At age 0 that is the fix itself, bit for bit.
     pub fn step(&mut self, frame: &SensorFrame) -> StepReport {
         self.counters.ticks = self.counters.ticks.wrapping_add(1);
         let stale = Staleness {
@@ -255,12 +265,14 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         let fix = match frame.external_pose {
             Some(p) => {
                 self.pose = p;
+                self.history.push(p, frame.dt_us);
                 FixOutcome::NotAttempted
             }
             None => {
                 let motion =
                     odometry::motion(frame.flow, frame.gyro, frame.dt_us, &self.config.odometry);
                 self.pose = odometry::apply(&self.pose, &motion);
+                self.history.push(self.pose, frame.dt_us);
                 self.correct(frame)
             }
         };
@@ -282,6 +294,11 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         let Some((a, b)) = tagfix::best_pair(frame.tags.as_slice(), &self.config.tags) else {
             return FixOutcome::NotAttempted;
         };
+        // Where the robot was believed to be when the picture was taken.
+        let Some(then) = self.history.at(frame.tags_age_us) else {
+            self.counters.fixes_rejected_too_old += 1;
+            return FixOutcome::Rejected(FixRejection::TooOld);
+        };
         let fix = match tagfix::two_tag_pose(a, b, &self.config.camera, &self.config.fix) {
             Ok(fix) => fix,
             Err(reason) => {
@@ -289,7 +306,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
                 return FixOutcome::Rejected(reason);
             }
         };
-        if !tagfix::within_gate(&fix, &self.pose, &self.config.fix) {
+        if !tagfix::within_gate(&fix, &then, &self.config.fix) {
             self.gate_rejections_in_a_row = self.gate_rejections_in_a_row.saturating_add(1);
             let limit = self.config.fix.relocalise_after;
             if limit == 0 || self.gate_rejections_in_a_row <= limit {
@@ -299,7 +316,10 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             self.counters.relocalisations += 1;
         }
         self.gate_rejections_in_a_row = 0;
-        self.pose = fix;
+        // The pose then becomes the fix; now and every remembered pose move with it.
+        let correction = RigidMotion::carrying(&then, &fix);
+        self.history.carry(&correction);
+        self.pose = self.history.newest();
         self.counters.fixes_taken += 1;
         FixOutcome::Taken
     }

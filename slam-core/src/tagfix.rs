@@ -128,6 +128,9 @@ pub enum FixRejection {
     Geometry,
     /// The fix disagrees with the prediction by more than the gate.
     Gate,
+    /// The picture is older than the pose history reaches, so there is no believed pose
+    /// of that moment to gate it against or carry it forward from.
+    TooOld,
 }
 
 /// What the fix step did this tick.

@@ -16,7 +16,7 @@
 //! COBS( VERSION | postcard(Message) | CRC16_LE ) | 0x00
 //! ```
 //!
-//! - `VERSION` is one byte, [`WIRE_VERSION`] (`0xB2`: BugBot telemetry, layout 2). A
+//! - `VERSION` is one byte, [`WIRE_VERSION`] (`0xB3`: BugBot telemetry, layout 3). A
 //!   receiver drops frames with any other value.
 //! - `postcard(Message)` is the [postcard 1.x] encoding of [`Message`]: integers `u16`,
 //!   `u32`, `i32` are LEB128 varints (signed ones zigzag-mapped first), `u8` and `i8` are
@@ -35,7 +35,7 @@
 //! | index | message | fields |
 //! |---|---|---|
 //! | 0 | `Hello` | `width: u16`, `height: u16` (cells), `cell_mm: i32`, `origin_x_mm: i32`, `origin_y_mm: i32`, `free_below: i8`, `occupied_above: i8` (cell units, below), `firmware: u8 major, u8 minor, u8 patch` |
-//! | 1 | `Tick` | `tick: u32`, `time_ms: u32`, `x_um: i32`, `y_um: i32`, `heading_bits: u32` (2^32 per turn, clockwise from +y), `fix` (varint 0 not attempted, 1 taken, 2 rejected followed by varint 0 geometry / 1 gate), `stale: u8` (bit 0 flow, bit 1 gyro, bit 2 depth), `cells_written: u32`, then the counters as `u32`: ticks, fixes_taken, fixes_rejected_geometry, fixes_rejected_gate, relocalisations, beams_mapped, beams_invalid, flow_stale, gyro_stale, depth_stale |
+//! | 1 | `Tick` | `tick: u32`, `time_ms: u32`, `x_um: i32`, `y_um: i32`, `heading_bits: u32` (2^32 per turn, clockwise from +y), `fix` (varint 0 not attempted, 1 taken, 2 rejected followed by varint 0 geometry / 1 gate / 2 too old), `stale: u8` (bit 0 flow, bit 1 gyro, bit 2 depth), `cells_written: u32`, then the counters as `u32`: ticks, fixes_taken, fixes_rejected_geometry, fixes_rejected_gate, fixes_rejected_too_old, relocalisations, beams_mapped, beams_invalid, flow_stale, gyro_stale, depth_stale |
 //! | 2 | `MapRows` | `first_row: u16`, `first_column: u16`, `cells`: varint count (at most [`MAX_CHUNK_CELLS`]) then one `i8` per cell |
 //! | 3 | `Health` | twelve `u32`: depth_timeouts, depth_bus_errors, flow_no_surface, flow_outliers, flow_bus_errors, gyro_bus_errors, camera_bad_frames, tick_overruns, watchdog_feeds, depth_start_failures, flow_start_failures, gyro_start_failures |
 //!
@@ -50,9 +50,9 @@
 //!
 //! The longest frame is [`MAX_FRAME_LEN`] (142) bytes. On the seed's 46 x 46 grid at
 //! 10 Hz with [`Schedule::DEFAULT`]: a `MapRows` of two rows (92 cells) is 101 bytes a
-//! tick, a `Tick` at most 91 (about 35 on the seed route), a `Health` at most 66 once a
-//! second and a `Hello` at most 33 every 5 s. That is at most 10 x (101 + 91) + 66 + 7 =
-//! 1,993 bytes/s (about 1,400 on the seed route), 17 % of a 115,200 baud 8N1 UART
+//! tick, a `Tick` at most 96 (about 36 on the seed route), a `Health` at most 66 once a
+//! second and a `Hello` at most 33 every 5 s. That is at most 10 x (101 + 96) + 66 + 7 =
+//! 2,043 bytes/s (about 1,400 on the seed route), 18 % of a 115,200 baud 8N1 UART
 //! (11,520 bytes/s) and nothing for USB; the whole map refreshes every 2.3 s.
 //!
 //! [postcard 1.x]: https://postcard.jamesmunns.com/wire-format
@@ -67,11 +67,12 @@ use core::fmt;
 use serde::de::{self, SeqAccess, Visitor};
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
-/// The first byte of every frame: `0xB2`, BugBot telemetry layout 2.
+/// The first byte of every frame: `0xB3`, BugBot telemetry layout 3.
 ///
 /// Bumped whenever the layout changes, so an old viewer drops new frames instead of
-/// misreading them. Layout 2 added the start-up failure counts to `Health`.
-pub const WIRE_VERSION: u8 = 0xB2;
+/// misreading them. Layout 2 added the start-up failure counts to `Health`; layout 3 the
+/// `TooOld` fix rejection and its counter to `Tick`.
+pub const WIRE_VERSION: u8 = 0xB3;
 
 /// Most cells one [`MapRows`] carries: two rows of the seed's 46-cell grid fit, and the
 /// frame stays under 150 bytes (13 ms at 115,200 baud).
@@ -850,6 +851,7 @@ mod tests {
                 fixes_taken: 12,
                 fixes_rejected_geometry: 1,
                 fixes_rejected_gate: 2,
+                fixes_rejected_too_old: 3,
                 relocalisations: 0,
                 beams_mapped: 1000,
                 beams_invalid: 96,
@@ -913,7 +915,7 @@ mod tests {
             gyro_start_failures: 2,
             ..SensorHealth::default()
         });
-        let mut raw = std::vec![0xB2, 3, 0, 1, 0xAC, 0x02, 0, 0, 0, 0, 0, 0, 0, 0, 2];
+        let mut raw = std::vec![0xB3, 3, 0, 1, 0xAC, 0x02, 0, 0, 0, 0, 0, 0, 0, 0, 2];
         let crc = crc16(&raw);
         raw.extend_from_slice(&crc.to_le_bytes());
         let mut stuffed = std::vec![0u8; 32];
@@ -923,7 +925,7 @@ mod tests {
         assert_eq!(frame(&h), stuffed);
         // No zero before the delimiter.
         assert!(!stuffed[..stuffed.len() - 1].contains(&0));
-        assert_eq!(stuffed[0], 3, "first COBS code: b2 03 then a zero");
+        assert_eq!(stuffed[0], 3, "first COBS code: b3 03 then a zero");
     }
 
     #[test]
@@ -959,11 +961,13 @@ mod tests {
             t.y_um = i32::MIN;
             t.heading_bits = u32::MAX;
             t.cells_written = u32::MAX;
+            t.fix = FixOutcome::Rejected(FixRejection::TooOld);
             t.counters = Counters {
                 ticks: u32::MAX,
                 fixes_taken: u32::MAX,
                 fixes_rejected_geometry: u32::MAX,
                 fixes_rejected_gate: u32::MAX,
+                fixes_rejected_too_old: u32::MAX,
                 relocalisations: u32::MAX,
                 beams_mapped: u32::MAX,
                 beams_invalid: u32::MAX,
@@ -996,7 +1000,7 @@ mod tests {
         }
         for (m, limit) in [
             (big, MAX_FRAME_LEN),
-            (worst_tick, 91),
+            (worst_tick, 96),
             (Message::Health(all_max), 66),
             (worst_hello, 33),
         ] {
@@ -1025,7 +1029,7 @@ mod tests {
         bytes.extend([1, 2, 3, 4, 5, 0]);
         bytes.extend(frame(&tick()));
         bytes.extend([0, 0, 0]); // empty frames: ignored
-        bytes.extend([0xB2, 0x07, 0]); // stuffing that runs past the end
+        bytes.extend([0xB3, 0x07, 0]); // stuffing that runs past the end
         bytes.extend(frame(&health()));
         let (out, stats) = decode_all(&bytes);
         let good: Vec<Message> = out.iter().filter_map(|r| r.ok()).collect();
@@ -1051,7 +1055,7 @@ mod tests {
         assert_eq!(out[1], Ok(hello()));
         assert_eq!(stats.bad_frames(), 1);
         // Too short to hold anything.
-        let (out, stats) = decode_all(&[0x02, 0xB2, 0]);
+        let (out, stats) = decode_all(&[0x02, 0xB3, 0]);
         assert_eq!(out, std::vec![Err(FrameError::TooShort)]);
         assert_eq!(stats.too_short, 1);
     }
@@ -1083,21 +1087,26 @@ mod tests {
 
     #[test]
     fn wrong_version_and_bad_body_are_told_apart() {
-        // Layout 1's health frame: an old firmware's.
-        let mut raw = std::vec![0xB1, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0];
-        let crc = crc16(&raw);
-        raw.extend_from_slice(&crc.to_le_bytes());
-        let mut enc = std::vec![0u8; 32];
-        let n = cobs_encode(&raw, &mut enc).expect("room");
-        enc.truncate(n);
-        enc.push(0);
-        assert_eq!(decode_all(&enc).0, std::vec![Err(FrameError::Version)]);
+        // Layout 1's and layout 2's health frames: older firmwares'.
+        for old in [
+            std::vec![0xB1, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0],
+            std::vec![0xB2, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0],
+        ] {
+            let mut raw = old;
+            let crc = crc16(&raw);
+            raw.extend_from_slice(&crc.to_le_bytes());
+            let mut enc = std::vec![0u8; 32];
+            let n = cobs_encode(&raw, &mut enc).expect("room");
+            enc.truncate(n);
+            enc.push(0);
+            assert_eq!(decode_all(&enc).0, std::vec![Err(FrameError::Version)]);
+        }
 
         for raw in [
-            std::vec![0xB2, 9],                                        // no such variant
-            std::vec![0xB2, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0],             // health cut short
-            std::vec![0xB2, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 7], // a byte left over
-            std::vec![0xB2, 2, 0, 0, 0x81, 0x01],                      // 129 cells announced
+            std::vec![0xB3, 9],                                        // no such variant
+            std::vec![0xB3, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0],             // health cut short
+            std::vec![0xB3, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 7], // a byte left over
+            std::vec![0xB3, 2, 0, 0, 0x81, 0x01],                      // 129 cells announced
         ] {
             let mut raw = raw;
             let crc = crc16(&raw);
@@ -1317,8 +1326,8 @@ mod tests {
 
         #[test]
         fn arbitrary_ticks_round_trip(
-            v in proptest::array::uniform16(any::<u32>()),
-            fix in 0u8..4,
+            v in proptest::array::uniform17(any::<u32>()),
+            fix in 0u8..5,
             stale in any::<u8>(),
             noise in proptest::collection::vec(any::<u8>(), 0..300),
         ) {
@@ -1329,13 +1338,14 @@ mod tests {
                     0 => FixOutcome::NotAttempted,
                     1 => FixOutcome::Taken,
                     2 => FixOutcome::Rejected(FixRejection::Geometry),
-                    _ => FixOutcome::Rejected(FixRejection::Gate),
+                    3 => FixOutcome::Rejected(FixRejection::Gate),
+                    _ => FixOutcome::Rejected(FixRejection::TooOld),
                 },
                 stale,
                 cells_written: v[5],
                 counters: Counters {
                     ticks: v[6], fixes_taken: v[7], fixes_rejected_geometry: v[8],
-                    fixes_rejected_gate: v[9], relocalisations: v[10], beams_mapped: v[11],
+                    fixes_rejected_gate: v[9], fixes_rejected_too_old: v[16], relocalisations: v[10], beams_mapped: v[11],
                     beams_invalid: v[12], flow_stale: v[13], gyro_stale: v[14], depth_stale: v[15],
                 },
             };

@@ -50,10 +50,11 @@ fn frame() -> impl Strategy<Value = SensorFrame> {
             proptest::option::of(any::<u16>()),
         )),
         tags(),
+        prop_oneof![Just(0u32), 0u32..500_000, any::<u32>()],
         proptest::option::weighted(0.3, pose()),
     )
         .prop_map(
-            |(dt_us, flow, gyro, depth, tags, external_pose)| SensorFrame {
+            |(dt_us, flow, gyro, depth, tags, tags_age_us, external_pose)| SensorFrame {
                 dt_us,
                 flow: flow.map(|(f, r)| FlowDelta {
                     forward_counts: f,
@@ -62,6 +63,7 @@ fn frame() -> impl Strategy<Value = SensorFrame> {
                 gyro: gyro.map(|g| GyroRate { rate_mdps: g }),
                 depth: depth.map(|ranges_mm| DepthScan { ranges_mm }),
                 tags,
+                tags_age_us,
                 external_pose,
             },
         )
@@ -74,7 +76,8 @@ proptest! {
     /// huge distances and columns, external poses anywhere): `step` returns, every cell stays
     /// within +-2048, and the counters add up: `ticks` = steps, `beams_mapped +
     /// beams_invalid` = 8 x frames with depth, stale counts = frames missing each input,
-    /// fixes taken + rejected <= ticks, and the report's pose is the state's pose.
+    /// fixes taken + rejected <= ticks, and the report's pose is the state's pose. Any
+    /// picture age, including ages past the pose history and `u32::MAX`.
     ///
     /// Holds in debug builds too (overflow checks on): the overflows this once found are
     /// pinned by the deterministic regression tests below.
@@ -97,7 +100,10 @@ proptest! {
             prop_assert_eq!(c.beams_mapped, valid);
             prop_assert_eq!(c.depth_stale, c.ticks - with_depth);
             prop_assert_eq!((c.flow_stale, c.gyro_stale), (no_flow, no_gyro));
-            prop_assert!(c.fixes_taken + c.fixes_rejected_geometry + c.fixes_rejected_gate <= c.ticks);
+            prop_assert!(
+                c.fixes_taken + c.fixes_rejected_geometry + c.fixes_rejected_gate
+                    + c.fixes_rejected_too_old <= c.ticks
+            );
             prop_assert!(c.relocalisations <= c.fixes_taken);
             if let Some(p) = f.external_pose {
                 prop_assert_eq!(report.pose, p);

@@ -1,5 +1,6 @@
 //! Camera co-processor task (UART0, 115200 baud 8N1, RX on GP1): decodes its tag-detection
-//! frames and publishes each picture's tags into [`TagInbox`], the latest picture winning.
+//! frames and publishes each picture's tags into [`TagInbox`], the latest picture winning,
+//! with the instant its frame arrived.
 //!
 //! The UART is *buffered* (interrupt driven into a ring buffer), not DMA: bytes that arrive
 //! while the task is busy are kept, and it is the RX mode the emulator supports once its
@@ -12,13 +13,14 @@
 
 use drivers::camera_link::{FrameDecoder, FrameRepr};
 use embassy_rp::uart::{self, BufferedUart};
+use embassy_time::Instant;
 use embedded_io_async::Read;
 use slam_core::{TagDetection, TagDetections};
 use static_cell::ConstStaticCell;
 
 use crate::board::{CameraLinkPins, CAMERA_BAUD};
 use crate::health::HEALTH;
-use crate::inputs::TagInbox;
+use crate::inputs::{TagInbox, TagPicture};
 use crate::Irqs;
 
 /// Receive buffer, in bytes: a few frames of detections at 115200 baud between polls.
@@ -60,9 +62,15 @@ pub async fn camera_task(pins: CameraLinkPins, irqs: Irqs, tags: &'static TagInb
                 continue;
             }
         };
+        // The read wakes on the RX interrupt, so this is within a few character times of
+        // the chunk's last byte: when every frame that ends in the chunk arrived.
+        let received = Instant::now();
         for frame in decoder.feed(chunk.get(..n).unwrap_or(&[])) {
             HEALTH.camera_frames.bump();
-            tags.signal(to_core(&frame));
+            tags.signal(TagPicture {
+                tags: to_core(&frame),
+                received,
+            });
         }
         // The decoder counts rejects by kind; the health struct wants the total.
         let rejected = decoder.stats().rejected();

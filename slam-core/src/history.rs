@@ -1,0 +1,216 @@
+//! The believed poses of the last few ticks, so that a camera picture taken between two
+//! ticks can be compared with where the robot was believed to be when it was taken.
+//!
+//! The camera runs on its own schedule, so its newest picture is up to a tick old when the
+//! tick uses it. A fix from that picture is the pose *then*: gating it against the pose now
+//! and taking it as the pose now puts the estimate a tick behind (9 mm at 86 mm/s, 3
+//! degrees in a 31.5 deg/s turn).
+
+use crate::pose::{mul_q16, Pose, RigidMotion};
+use crate::Angle;
+
+/// Poses kept, the current tick's included: pictures up to the last `HISTORY_LEN - 1`
+/// ticks old (400 ms at 10 Hz) can be placed; older ones are refused.
+pub const HISTORY_LEN: usize = 5;
+
+/// One remembered tick.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+struct Entry {
+    /// The pose at the end of the tick.
+    pose: Pose,
+    /// Time from the previous entry to this one, in microseconds (the tick's `dt_us`).
+    dt_us: u32,
+}
+
+/// A ring of the newest poses, each with the time since the one before it.
+///
+/// Times are kept as gaps rather than clock readings, so ages add up with saturation and
+/// stay ordered whatever the ticks' lengths (a clock would wrap).
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct PoseHistory {
+    entries: [Entry; HISTORY_LEN],
+    /// Index of the newest entry.
+    newest: usize,
+    /// Entries held, at most `HISTORY_LEN`.
+    len: usize,
+}
+
+impl PoseHistory {
+    /// A history holding only `pose`, at age 0.
+    pub const fn new(pose: Pose) -> PoseHistory {
+        PoseHistory {
+            entries: [Entry { pose, dt_us: 0 }; HISTORY_LEN],
+            newest: 0,
+            len: 1,
+        }
+    }
+
+    /// Records the pose at the end of a tick `dt_us` after the previous entry; the oldest
+    /// entry goes when the ring is full.
+    pub fn push(&mut self, pose: Pose, dt_us: u32) {
+        // A compare, not `%`: the M0+ has no divider.
+        self.newest = if self.newest + 1 >= HISTORY_LEN {
+            0
+        } else {
+            self.newest + 1
+        };
+        if let Some(slot) = self.entries.get_mut(self.newest) {
+            *slot = Entry { pose, dt_us };
+        }
+        self.len = (self.len + 1).min(HISTORY_LEN);
+    }
+
+    /// The newest pose.
+    pub fn newest(&self) -> Pose {
+        self.entries
+            .get(self.newest)
+            .map_or_else(Pose::default, |e| e.pose)
+    }
+
+    /// The pose `age_us` before the newest entry: linear in time between the two entries
+    /// around that moment (heading by the shorter turn), exactly an entry's pose at its own
+    /// age (so age 0 is the newest pose, bit for bit). `None` if the history does not
+    /// reach that far back.
+    pub fn at(&self, age_us: u32) -> Option<Pose> {
+        let mut newer: Option<(u32, &Entry)> = None;
+        let mut age = 0u32;
+        for e in self.newest_first() {
+            if age >= age_us {
+                return Some(match newer {
+                    // Here `newer_age < age_us <= age`, so the span is never zero.
+                    Some((newer_age, n)) if age > age_us => {
+                        interpolate(&e.pose, &n.pose, age - age_us, age - newer_age)
+                    }
+                    _ => e.pose,
+                });
+            }
+            newer = Some((age, e));
+            age = age.saturating_add(e.dt_us);
+        }
+        None
+    }
+
+    /// Carries every remembered pose by `motion`: after a fix the past is re-expressed in
+    /// the corrected frame, so a later, older picture is compared with consistent poses.
+    pub fn carry(&mut self, motion: &RigidMotion) {
+        for e in self.entries.iter_mut().take(self.len) {
+            e.pose = motion.apply(&e.pose);
+        }
+    }
+
+    /// The held entries, newest first.
+    fn newest_first(&self) -> impl Iterator<Item = &Entry> {
+        let (recent, older) = self.entries.split_at((self.newest + 1).min(HISTORY_LEN));
+        recent.iter().rev().chain(older.iter().rev()).take(self.len)
+    }
+}
+
+/// The pose `back_us` after `older` on the way to `newer`, which came `span_us` after it
+/// (`0 <= back_us <= span_us`, `span_us > 0`).
+fn interpolate(older: &Pose, newer: &Pose, back_us: u32, span_us: u32) -> Pose {
+    // The fraction in Q16 by one 32-bit division: both scaled down until the span fits
+    // 15 bits, so `back << 16` fits 31 (a 100 ms span loses 4 us of resolution).
+    let shift = (32 - span_us.leading_zeros()).saturating_sub(15);
+    let (back, span) = (back_us >> shift, (span_us >> shift).max(1));
+    let fraction = ((back.min(span) << 16) / span) as i32;
+    let part = |from: i32, to: i32| {
+        // Between `from` and `to`, so it fits an `i32`.
+        (from as i64 + mul_q16(to as i64 - from as i64, fraction)) as i32
+    };
+    let turn = newer.heading.diff(older.heading) as i64;
+    Pose {
+        x_um: part(older.x_um, newer.x_um),
+        y_um: part(older.y_um, newer.y_um),
+        heading: older.heading + Angle::from_bits(mul_q16(turn, fraction) as u32),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const TICK_US: u32 = 100_000;
+
+    /// Driving +x at 100 mm per tick while turning 10 degrees clockwise per tick,
+    /// `n + 1` poses from tick 0.
+    fn driven(n: u32) -> PoseHistory {
+        let mut h = PoseHistory::new(Pose::from_mm_mdeg(0, 0, 0));
+        for i in 1..=n {
+            h.push(
+                Pose::from_mm_mdeg(100 * i as i32, 0, 10_000 * i as i64),
+                TICK_US,
+            );
+        }
+        h
+    }
+
+    #[test]
+    fn age_zero_is_the_newest_pose() {
+        let h = driven(3);
+        assert_eq!(h.at(0), Some(Pose::from_mm_mdeg(300, 0, 30_000)));
+        assert_eq!(h.at(0), Some(h.newest()));
+    }
+
+    #[test]
+    fn ages_at_entries_are_exact_and_between_them_linear() {
+        let h = driven(3);
+        assert_eq!(h.at(TICK_US), Some(Pose::from_mm_mdeg(200, 0, 20_000)));
+        assert_eq!(h.at(3 * TICK_US), Some(Pose::from_mm_mdeg(0, 0, 0)));
+        let p = h.at(25_000).unwrap();
+        assert!((p.x_um - 275_000).abs() <= 10, "{p:?}");
+        assert_eq!(p.y_um, 0);
+        assert!((p.heading.to_millidegrees() - 27_500).abs() <= 1, "{p:?}");
+    }
+
+    #[test]
+    fn too_old_is_none() {
+        let h = driven(2);
+        assert!(h.at(2 * TICK_US).is_some());
+        assert_eq!(h.at(2 * TICK_US + 1), None);
+        // The ring keeps HISTORY_LEN poses: HISTORY_LEN - 1 ticks back, no further.
+        let h = driven(20);
+        let reach = (HISTORY_LEN as u32 - 1) * TICK_US;
+        assert_eq!(h.at(reach), Some(Pose::from_mm_mdeg(1600, 0, 160_000)));
+        assert_eq!(h.at(reach + 1), None);
+        assert_eq!(h.at(u32::MAX), None);
+    }
+
+    #[test]
+    fn heading_interpolates_across_north_by_the_short_way() {
+        let mut h = PoseHistory::new(Pose::from_mm_mdeg(0, 0, 356_000));
+        h.push(Pose::from_mm_mdeg(0, 0, 4_000), TICK_US);
+        let mid = h.at(TICK_US / 2).unwrap();
+        assert_eq!(mid.heading.to_millidegrees(), 0);
+        let mut h = PoseHistory::new(Pose::from_mm_mdeg(0, 0, 4_000));
+        h.push(Pose::from_mm_mdeg(0, 0, -4_000), TICK_US);
+        let quarter = h.at(3 * TICK_US / 4).unwrap();
+        assert_eq!(quarter.heading.to_millidegrees(), 2_000);
+    }
+
+    #[test]
+    fn zero_length_and_huge_ticks_do_not_divide_by_zero() {
+        let mut h = PoseHistory::new(Pose::from_mm_mdeg(0, 0, 0));
+        h.push(Pose::from_mm_mdeg(10, 0, 0), 0);
+        h.push(Pose::from_mm_mdeg(20, 0, 0), u32::MAX);
+        h.push(Pose::from_mm_mdeg(30, 0, 0), u32::MAX);
+        assert_eq!(h.at(0), Some(Pose::from_mm_mdeg(30, 0, 0)));
+        assert!(h.at(u32::MAX / 2).is_some());
+        assert_eq!(h.at(u32::MAX), Some(Pose::from_mm_mdeg(20, 0, 0)));
+        let mut h = PoseHistory::new(Pose::from_mm_mdeg(0, 0, 0));
+        h.push(Pose::from_mm_mdeg(10, 0, 0), 0);
+        assert_eq!(h.at(0), Some(Pose::from_mm_mdeg(10, 0, 0)));
+        assert_eq!(h.at(1), None);
+    }
+
+    #[test]
+    fn carry_moves_every_pose() {
+        let mut h = driven(2);
+        let motion = RigidMotion::carrying(
+            &Pose::from_mm_mdeg(0, 0, 0),
+            &Pose::from_mm_mdeg(1000, 0, 0),
+        );
+        h.carry(&motion);
+        assert_eq!(h.at(0), Some(Pose::from_mm_mdeg(1200, 0, 20_000)));
+        assert_eq!(h.at(2 * TICK_US), Some(Pose::from_mm_mdeg(1000, 0, 0)));
+    }
+}
