@@ -97,21 +97,30 @@ impl Angle {
             return Angle::ZERO;
         }
         // Scale so the larger component sits in [2^28, 2^29): room for the CORDIC gain (1.65).
-        let (mut vx, mut vy) = (y, x); // CORDIC measures from its x axis, our +y.
-        let big = vx.unsigned_abs().max(vy.unsigned_abs());
-        let width = 64 - big.leading_zeros() as i32;
-        let shift = width - 29;
-        if shift > 0 {
-            vx >>= shift;
-            vy >>= shift;
+        // CORDIC measures from its x axis, our +y. Inputs that fit 29 bits (every length
+        // on the robot) scale up in 32 bits: a 64-bit variable shift is a library call on
+        // the M0+.
+        let (mut vx, mut vy) = if x.unsigned_abs() < 1 << 29 && y.unsigned_abs() < 1 << 29 {
+            let (vx, vy) = (y as i32, x as i32);
+            let big = vx.unsigned_abs().max(vy.unsigned_abs());
+            let shift = 29 - (32 - big.leading_zeros());
+            (vx << shift, vy << shift)
         } else {
-            vx <<= -shift;
-            vy <<= -shift;
-        }
+            let (mut vx, mut vy) = (y, x);
+            let big = vx.unsigned_abs().max(vy.unsigned_abs());
+            let width = 64 - big.leading_zeros() as i32;
+            let shift = width - 29;
+            if shift > 0 {
+                vx >>= shift;
+                vy >>= shift;
+            } else {
+                vx <<= -shift;
+                vy <<= -shift;
+            }
+            (vx as i32, vy as i32)
+        };
         // Both now fit 30 bits, and the CORDIC's gain (1.65) keeps them inside 31: the loop
-        // runs in 32-bit registers, where the M0+ shifts in one instruction (a 64-bit
-        // variable shift is a library call there).
-        let (mut vx, mut vy) = (vx as i32, vy as i32);
+        // runs in 32-bit registers, where the M0+ shifts in one instruction.
         // Rotate into the right half plane first.
         let mut acc: u32 = 0;
         if vx < 0 {
