@@ -162,7 +162,17 @@ impl YawIntegrator {
 }
 
 /// The newest depth scan not yet mapped.
-pub type DepthInbox = Signal<CriticalSectionRawMutex, DepthScan>;
+pub type DepthInbox = Signal<CriticalSectionRawMutex, DepthReading>;
+
+/// One depth scan and when the sensor had it ready.
+#[derive(Clone, Copy)]
+pub struct DepthReading {
+    /// The 8 beams.
+    pub scan: DepthScan,
+    /// When core 1 saw the sensor's data-ready flag (polled every 5 ms, so up to 5 ms
+    /// after the frame ended): the SLAM tick sets the frame's `depth_age_us` from it.
+    pub measured: Instant,
+}
 
 /// One camera picture's tags and when they reached the robot.
 #[derive(Clone, Copy)]

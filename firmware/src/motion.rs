@@ -29,8 +29,9 @@
 //! # Safety
 //!
 //! The route starts only once the IMU task has calibrated the gyro bias (the robot must
-//! stand still ~1.1 s after reset). While driving, the SLAM loop's reports are the
-//! heartbeat: if none arrives for [`SLAM_SILENCE`], the motors coast and the route
+//! stand still ~1.1 s after reset) and a SLAM tick has taken a live gyro reading. While
+//! driving, the SLAM loop's reports are the heartbeat: if none arrives for
+//! [`SLAM_SILENCE`], the motors coast and the route
 //! pauses (a drive's clock stops too) until reports come back; each such halt is counted.
 //! A turn that the gyro has not finished within twice its planned time plus two seconds
 //! means the gyro is not to be trusted: the route is abandoned and the motors coast.
@@ -155,6 +156,11 @@ pub async fn motion_task(
         turn_permille(31_500)
     );
     inputs.gyro_ready.wait().await;
+    // Then one SLAM tick with the gyro live: the tick in which calibration ended saw
+    // samples for only part of its interval, and the core takes their mean rate over the
+    // whole of it. Moving then would count the turn's start twice (1.6 degrees at the
+    // route's turn rate, measured in the emulator); standing still one more tick costs 0.1 s.
+    while reports.changed().await.stale.gyro {}
 
     let mut pilot = Pilot {
         motors: &mut motors,

@@ -173,7 +173,12 @@ pub async fn slam_task(watchdog: Peri<'static, WATCHDOG>, inputs: &'static Input
         let mut frame = SensorFrame::empty(dt_us);
         frame.flow = inputs.flow.take();
         frame.gyro = inputs.gyro.take();
-        frame.depth = inputs.depth.try_take();
+        if let Some(reading) = inputs.depth.try_take() {
+            frame.depth = Some(reading.scan);
+            // The sensor ranges on its own 15 Hz clock: a scan is up to a frame old, and
+            // the core maps it at the pose of that moment.
+            frame.depth_age_us = micros(started.saturating_duration_since(reading.measured));
+        }
         if let Some(picture) = inputs.tags.try_take() {
             frame.tags = picture.tags;
             // How long before this tick the picture arrived; one that arrived after the

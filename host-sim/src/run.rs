@@ -271,7 +271,9 @@ fn run_sized<const W: usize, const H: usize>(
             dt_us,
             flow,
             gyro,
+            // The simulated depth sensor reads at the tick.
             depth: Some(robot.read_depth()),
+            depth_age_us: 0,
             tags: robot.read_tags(),
             tags_age_us,
             external_pose: (mode == PoseMode::Truth).then(|| to_core_pose(&truth)),

@@ -105,6 +105,11 @@ pub struct SensorFrame {
     pub gyro: Option<GyroRate>,
     /// This tick's depth scan, or `None` if there was no new one.
     pub depth: Option<DepthScan>,
+    /// How long before this tick's instant the scan was measured, in microseconds (0: at
+    /// the tick). The sensor keeps its own frame rate, and a scan 60 ms old taken while
+    /// turning at 30 degrees a second lands 2 degrees off; the core maps it at the pose of
+    /// its moment, and counts a scan older than its pose history as stale.
+    pub depth_age_us: u32,
     /// Tags the camera read in its newest picture (empty when none, or stale).
     pub tags: TagDetections,
     /// How long before this tick's instant that picture was taken, in microseconds (0: at
@@ -125,6 +130,7 @@ impl SensorFrame {
             flow: None,
             gyro: None,
             depth: None,
+            depth_age_us: 0,
             tags: TagDetections {
                 items: [TagDetection {
                     id: 0,

@@ -253,7 +253,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
     /// to now by the motion believed since. At age 0 that is the fix itself, bit for bit.
     pub fn step(&mut self, frame: &SensorFrame) -> StepReport {
         self.counters.ticks = self.counters.ticks.wrapping_add(1);
-        let stale = Staleness {
+        let mut stale = Staleness {
             flow: frame.flow.is_none(),
             gyro: frame.gyro.is_none(),
             depth: frame.depth.is_none(),
@@ -277,7 +277,17 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             }
         };
 
-        let cells_written = frame.depth.as_ref().map_or(0, |scan| self.map_scan(scan));
+        // The scan goes in at the pose of its own moment (after any fix has moved the
+        // remembered poses); one older than the history reaches is as good as none.
+        let cells_written = match (frame.depth.as_ref(), self.history.at(frame.depth_age_us)) {
+            (Some(scan), Some(then)) => self.map_scan(scan, &then),
+            (Some(_), None) => {
+                stale.depth = true;
+                self.counters.depth_stale += 1;
+                0
+            }
+            (None, _) => 0,
+        };
         StepReport {
             pose: self.pose,
             fix,
@@ -324,8 +334,8 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         FixOutcome::Taken
     }
 
-    fn map_scan(&mut self, scan: &DepthScan) -> u32 {
-        let origin = (self.pose.x_mm(), self.pose.y_mm());
+    fn map_scan(&mut self, scan: &DepthScan, pose: &Pose) -> u32 {
+        let origin = (pose.x_mm(), pose.y_mm());
         let max = self.config.depth.max_range_mm as i32;
         let cell = self.config.geometry.cell_mm;
         let mut written = 0;
@@ -339,7 +349,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
                 continue;
             };
             let range = range as i32;
-            let dir = self.pose.heading + *angle;
+            let dir = pose.heading + *angle;
             let (s, c) = (dir.sin(), dir.cos());
             let point = |r: i32| {
                 (

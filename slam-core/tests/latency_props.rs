@@ -550,3 +550,71 @@ proptest! {
         }
     }
 }
+
+/// A scan one tick old goes in at the pose of one tick ago: the same map, cell for cell,
+/// as mapping it then, while turning (where an unplaced scan smears the walls most); and
+/// one older than the history is counted stale and maps nothing.
+#[test]
+fn old_scans_map_at_the_pose_of_their_moment() {
+    let scan = slam_core::DepthScan {
+        ranges_mm: [
+            Some(900),
+            Some(1200),
+            None,
+            Some(1500),
+            Some(700),
+            Some(2500),
+            Some(800),
+            None,
+        ],
+    };
+    let turning = |frame: &mut SensorFrame| {
+        frame.flow = Some(FlowDelta {
+            forward_counts: 0,
+            right_counts: 0,
+        });
+        frame.gyro = Some(GyroRate { rate_mdps: 31_500 });
+    };
+    let start = Pose::from_mm_mdeg(700, 500, 10_000);
+
+    // Mapped when taken: on the tick it was measured, then a tick of turning.
+    let mut then = Slam::<46, 46>::new(SlamConfig::seed_mat(), start).unwrap();
+    let mut f = SensorFrame::empty(DT_US);
+    turning(&mut f);
+    then.step(&f);
+    f.depth = Some(scan);
+    then.step(&f);
+    f.depth = None;
+    then.step(&f);
+
+    // Mapped a tick late, told its age.
+    let mut late = Slam::<46, 46>::new(SlamConfig::seed_mat(), start).unwrap();
+    let mut f = SensorFrame::empty(DT_US);
+    turning(&mut f);
+    late.step(&f);
+    late.step(&f);
+    f.depth = Some(scan);
+    f.depth_age_us = DT_US;
+    let report = late.step(&f);
+    assert!(!report.stale.depth);
+    assert_eq!(late.pose(), then.pose());
+    assert_eq!(late.map().rows(), then.map().rows());
+
+    // Mapped a tick late as if new: a different (smeared) map.
+    let mut blind = Slam::<46, 46>::new(SlamConfig::seed_mat(), start).unwrap();
+    let mut f = SensorFrame::empty(DT_US);
+    turning(&mut f);
+    blind.step(&f);
+    blind.step(&f);
+    f.depth = Some(scan);
+    blind.step(&f);
+    assert_ne!(blind.map().rows(), then.map().rows());
+
+    // Older than the history reaches: stale, nothing written.
+    let before = late.counters().depth_stale;
+    f.depth_age_us = DT_US * (HISTORY_LEN as u32 + 1);
+    let report = late.step(&f);
+    assert!(report.stale.depth);
+    assert_eq!(report.cells_written, 0);
+    assert_eq!(late.counters().depth_stale, before + 1);
+}

@@ -52,19 +52,23 @@ fn frame() -> impl Strategy<Value = SensorFrame> {
         tags(),
         prop_oneof![Just(0u32), 0u32..500_000, any::<u32>()],
         proptest::option::weighted(0.3, pose()),
+        prop_oneof![Just(0u32), 0u32..500_000, any::<u32>()],
     )
         .prop_map(
-            |(dt_us, flow, gyro, depth, tags, tags_age_us, external_pose)| SensorFrame {
-                dt_us,
-                flow: flow.map(|(f, r)| FlowDelta {
-                    forward_counts: f,
-                    right_counts: r,
-                }),
-                gyro: gyro.map(|g| GyroRate { rate_mdps: g }),
-                depth: depth.map(|ranges_mm| DepthScan { ranges_mm }),
-                tags,
-                tags_age_us,
-                external_pose,
+            |(dt_us, flow, gyro, depth, tags, tags_age_us, external_pose, depth_age_us)| {
+                SensorFrame {
+                    dt_us,
+                    flow: flow.map(|(f, r)| FlowDelta {
+                        forward_counts: f,
+                        right_counts: r,
+                    }),
+                    gyro: gyro.map(|g| GyroRate { rate_mdps: g }),
+                    depth: depth.map(|ranges_mm| DepthScan { ranges_mm }),
+                    depth_age_us,
+                    tags,
+                    tags_age_us,
+                    external_pose,
+                }
             },
         )
 }
@@ -85,9 +89,13 @@ proptest! {
     fn step_never_panics_and_counters_add_up(start in pose(), frames in proptest::collection::vec(frame(), 1..25)) {
         let mut slam: Slam<46, 46> = Slam::new(SlamConfig::seed_mat(), start).unwrap();
         let (mut with_depth, mut no_flow, mut no_gyro) = (0u32, 0u32, 0u32);
+        let mut valid = 0u32;
         for (i, f) in frames.iter().enumerate() {
             let report = slam.step(f);
-            with_depth += f.depth.is_some() as u32;
+            // A scan is mapped unless it is older than the pose history (then it is stale).
+            let placed = f.depth.filter(|_| !report.stale.depth);
+            with_depth += placed.is_some() as u32;
+            valid += placed.map_or(0, |d| d.ranges_mm.iter().filter(|r| r.is_some()).count() as u32);
             no_flow += f.flow.is_none() as u32;
             no_gyro += f.gyro.is_none() as u32;
             let c = report.counters;
@@ -95,9 +103,10 @@ proptest! {
             prop_assert_eq!(report.pose, *slam.pose());
             prop_assert_eq!(c.ticks, i as u32 + 1);
             prop_assert_eq!(c.beams_mapped + c.beams_invalid, 8 * with_depth);
-            let valid: u32 = frames[..=i].iter().filter_map(|f| f.depth)
-                .map(|d| d.ranges_mm.iter().filter(|r| r.is_some()).count() as u32).sum();
             prop_assert_eq!(c.beams_mapped, valid);
+            if f.depth.is_some() && f.depth_age_us == 0 {
+                prop_assert!(!report.stale.depth, "a scan of this very tick is always mapped");
+            }
             prop_assert_eq!(c.depth_stale, c.ticks - with_depth);
             prop_assert_eq!((c.flow_stale, c.gyro_stale), (no_flow, no_gyro));
             prop_assert!(

@@ -34,6 +34,8 @@ use embassy_rp::i2c;
 
 use crate::board::{DepthSensorPins, DEPTH_I2C_HZ};
 use crate::inputs::DepthInbox;
+#[cfg(feature = "vl53l5cx")]
+use crate::inputs::DepthReading;
 
 #[cfg(feature = "vl53l5cx")]
 pub use ranging::{depth_task, start_core1};
@@ -50,12 +52,12 @@ mod ranging {
     use embassy_rp::peripherals::I2C0;
     use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
     use embassy_sync::signal::Signal;
-    use embassy_time::{with_timeout, Delay, Duration, Timer};
+    use embassy_time::{with_timeout, Delay, Duration, Instant, Timer};
     use slam_core::DepthScan;
     use static_cell::StaticCell;
     use vl53l5cx_uld::{RangingMode, Resolution, Vl53l5cx};
 
-    use super::{bus_config, DepthInbox, DepthSensorPins};
+    use super::{bus_config, DepthInbox, DepthReading, DepthSensorPins};
     use crate::health::HEALTH;
 
     /// The ULD's calls back into Rust for I2C and delays, for exactly these bus and delay
@@ -100,8 +102,9 @@ mod ranging {
     /// Zone rows feeding the beams: the two middle rows (see `drivers::depth`).
     const ROWS: DepthConfig = DepthConfig::MIDDLE_ROWS;
 
-    /// The newest frame from core 1, for core 0. A `Signal`: the latest frame wins.
-    pub static ZONES: Signal<CriticalSectionRawMutex, ZoneResult> = Signal::new();
+    /// The newest frame from core 1, for core 0, with when it was ready. A `Signal`: the
+    /// latest frame wins.
+    pub static ZONES: Signal<CriticalSectionRawMutex, (ZoneResult, Instant)> = Signal::new();
 
     static CORE1_STACK: StaticCell<Stack<CORE1_STACK_BYTES>> = StaticCell::new();
     static CORE1_EXECUTOR: StaticCell<Executor> = StaticCell::new();
@@ -187,16 +190,19 @@ mod ranging {
             if !ready {
                 continue;
             }
+            // The frame ended at most one poll period ago; its read-out takes a few ms more.
+            let measured = Instant::now();
             match sensor.get_ranging_data() {
                 Ok(data) => {
                     failures_in_a_row = 0;
                     // One target per zone (the crate's default), so zone i is entry i;
                     // a zone with no target has no valid entry.
-                    ZONES.signal(ZoneResult::from_frame(
+                    let zones = ZoneResult::from_frame(
                         data.distance_mm,
                         data.target_status,
                         &data.nb_target_detected,
-                    ));
+                    );
+                    ZONES.signal((zones, measured));
                 }
                 Err(_) => {
                     HEALTH.depth_bus_errors.bump();
@@ -214,11 +220,14 @@ mod ranging {
         let mut ranging = false;
         loop {
             match with_timeout(FRAME_TIMEOUT, ZONES.wait()).await {
-                Ok(zones) => {
+                Ok((zones, measured)) => {
                     ranging = true;
                     let beams = reduce(&zones, &ROWS);
-                    scans.signal(DepthScan {
-                        ranges_mm: beams.range_mm,
+                    scans.signal(DepthReading {
+                        scan: DepthScan {
+                            ranges_mm: beams.range_mm,
+                        },
+                        measured,
                     });
                 }
                 // Before the first frame the sensor is still starting (about 2 s).
