@@ -89,6 +89,15 @@ fn the_viewer_gets_the_run_back() {
         Some(output.figures.fixes)
     );
     assert!(summary.health.is_some());
+    // The text summary carries the counters the JSON does, the too-old rejections too.
+    let text = summary.to_string();
+    let too_old = summary
+        .counters
+        .map_or(u32::MAX, |c| c.fixes_rejected_too_old);
+    assert!(
+        text.contains(&format!("/ {too_old} too old rejected")),
+        "{text}"
+    );
 
     // The command line agrees and draws both pictures.
     let pictures = dir.join("pictures");

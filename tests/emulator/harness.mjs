@@ -947,7 +947,18 @@ function patchUart(rp, uart, later, onByteOut) {
 /// I2C: rp2040js ignores writes to IC_INTR_MASK (0x30), so the I2C interrupt never fires
 /// and async transfers hang. The DW_apb_i2c stores the mask (13 bits) and drives the
 /// interrupt line with RAW_INTR_STAT & INTR_MASK.
+///
+/// After a transmit abort (a NACK) the DW_apb_i2c flushes its TX FIFO, which leaves it
+/// empty, so TX_EMPTY (RAW_INTR_STAT bit 4) is raised at once; rp2040js flushes the FIFO
+/// but never raises the flag, and embassy-rp's blocking write, which waits for TX_EMPTY
+/// before it looks for the abort, then spins for ever on the first NACK.
 function patchI2c(i2c) {
+  const TX_EMPTY = 1 << 4;
+  const origAbort = i2c.abort.bind(i2c);
+  i2c.abort = (reason) => {
+    origAbort(reason);
+    i2c.setInterrupts(TX_EMPTY);
+  };
   const IC_INTR_MASK = 0x30;
   const origWrite = i2c.writeUint32.bind(i2c);
   i2c.writeUint32 = (offset, value) => {

@@ -210,8 +210,9 @@ mod ranging {
                 }
             }
         }
-        // Best effort: the sensor is power-cycled next anyway.
-        let _ = sensor.stop_ranging();
+        // No `stop_ranging` first: the power cycle that follows stops the sensor anyway,
+        // and on a sensor that is not answering the ULD waits out its 5 s timeout for a
+        // stop that never arrives (measured in the emulator: recovery 5 s later).
     }
 
     /// Core 0: turns each frame from core 1 into a scan for the SLAM tick.
