@@ -291,17 +291,24 @@ impl TelemetryRecorder {
             )
         });
         let cells = self.beliefs();
+        let real = self.real_mask();
+        let mut ticks = self.ticks.clone();
+        // With the world known, the final map's share out of place, as `run` gives its last
+        // tick (the viewer scores only the map it ends with, so earlier ticks stay unknown).
+        if let (Some(_), Some(last)) = (&self.world, ticks.last_mut()) {
+            last.out_of_place_pct = map_counts(cells.iter().copied(), &real).out_of_place_pct();
+        }
         RunRecord {
             scenario: name.to_string(),
             pose_mode: "robot telemetry".to_string(),
-            ticks: self.ticks.clone(),
+            ticks,
             map: MapSnapshot {
                 width,
                 height,
                 cell_mm: f64::from(cell_mm),
                 origin_x_mm: f64::from(ox),
                 origin_y_mm: f64::from(oy),
-                out_of_place: out_of_place_mask(&cells, &self.real_mask()),
+                out_of_place: out_of_place_mask(&cells, &real),
                 cells,
             },
             world: self

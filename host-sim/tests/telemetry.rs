@@ -77,6 +77,23 @@ fn the_viewer_gets_the_run_back() {
     assert_eq!(record.map.cell_mm, output.record.map.cell_mm);
     assert_eq!(record.map.origin_x_mm, output.record.map.origin_x_mm);
 
+    // Without the world the share out of place is unknown; with it, the last tick carries
+    // the final map's, as `run`'s last tick does (the map picture's title shows it).
+    assert!(record
+        .ticks
+        .last()
+        .is_some_and(|t| t.out_of_place_pct.is_nan()));
+    let mut scored = decode_bytes(&bytes);
+    scored.recorder = scored
+        .recorder
+        .with_world(host_sim::world::World::new(&scenario));
+    let scored = scored.recorder.record("seed");
+    let (ours, theirs) = (
+        scored.ticks.last().map_or(f64::NAN, |t| t.out_of_place_pct),
+        last.out_of_place_pct,
+    );
+    assert!((ours - theirs).abs() < 1e-9, "{ours} vs {theirs}");
+
     // Fix markers and the known share tick by tick: the share lags the robot's by at most
     // one map sweep, and ends equal.
     let fixes = |r: &host_sim::RunRecord| r.ticks.iter().filter(|t| t.fix_taken).count();
