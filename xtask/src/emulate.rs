@@ -135,20 +135,8 @@ pub fn check_fault_run() -> Result<(u64, u64), String> {
         .hypot(num(&e["truth"]["y_mm"]) - num(&v["final_pose"]["y_um"]) / 1000.0);
     let depth_stale = num(&v["counters"]["depth_stale"]);
     let fresh_depth_after_fault = ticks - depth_stale - TICKS_BEFORE_FAULT;
-    let checks = [
-        (
-            "the loop kept 10 Hz: 514 to 520 ticks in 52 s".to_string(),
-            (514.0..=520.0).contains(&ticks),
-        ),
-        ("no overrun (emulator)".into(), num(&e["overruns"]) == 0.0),
-        (
-            "no overrun (firmware's health)".into(),
-            num(&v["health"]["tick_overruns"]) == 0.0,
-        ),
-        (
-            "no reset: the firmware's tick count is every tick received".into(),
-            num(&v["counters"]["ticks"]) == ticks,
-        ),
+    let mut checks = timing_checks(e, v);
+    checks.extend([
         (
             "telemetry decoded without a bad frame".into(),
             num(&v["bad_frames"]["total"]) == 0.0,
@@ -195,7 +183,7 @@ pub fn check_fault_run() -> Result<(u64, u64), String> {
             ),
             num(&v["max_error_after_first_fix_cm"]) <= 2.0,
         ),
-    ];
+    ]);
     let mut passed = 0;
     for (what, ok) in &checks {
         println!("emulator: {} {what}", if *ok { "ok    " } else { "FAILED" });
@@ -214,6 +202,29 @@ stale on {depth_stale} ticks, {} beams mapped, known {:.1} %; flow stale on {} t
         v["counters"]["flow_stale"],
     );
     Ok((passed, checks.len() as u64 - passed))
+}
+
+/// The checks every whole-route run makes: 10 Hz kept, no overrun by the emulator's count
+/// or the firmware's own, and no reset (the firmware counted every tick the viewer got, and
+/// the stream never started over).
+fn timing_checks(e: &serde_json::Value, v: &serde_json::Value) -> Vec<(String, bool)> {
+    let num = |x: &serde_json::Value| x.as_f64().unwrap_or(f64::NAN);
+    let ticks = num(&v["ticks"]);
+    vec![
+        (
+            "the loop kept 10 Hz: 514 to 520 ticks in 52 s".to_string(),
+            (514.0..=520.0).contains(&ticks),
+        ),
+        ("no overrun (emulator)".into(), num(&e["overruns"]) == 0.0),
+        (
+            "no overrun (firmware's health)".into(),
+            num(&v["health"]["tick_overruns"]) == 0.0,
+        ),
+        (
+            "no reset: the firmware's tick count is every tick received".into(),
+            num(&v["counters"]["ticks"]) == ticks && num(&v["restarts"]) == 0.0,
+        ),
+    ]
 }
 
 /// Simulated seconds for the whole seed route: 48.5 s of route after about 1.1 s of gyro
@@ -279,7 +290,6 @@ pub fn check_route_run() -> Result<(u64, u64), String> {
         .map_err(|e| format!("host-sim run's figures are not JSON: {e}"))?;
     let (e, v) = (&f["emulator"], &f["view"]);
     let num = |x: &serde_json::Value| x.as_f64().unwrap_or(f64::NAN);
-    let ticks = num(&v["ticks"]);
     let first_fix_into_route = num(&v["first_fix_s"]) - num(&v["route_start_s"]);
     let compare = |what: &str, emulated: f64, simulated: f64, tolerance: Tolerance| {
         let within = match tolerance {
@@ -293,20 +303,8 @@ pub fn check_route_run() -> Result<(u64, u64), String> {
             agrees(emulated, simulated, tolerance),
         )
     };
-    let checks = [
-        (
-            "the loop kept 10 Hz: 514 to 520 ticks in 52 s".to_string(),
-            (514.0..=520.0).contains(&ticks),
-        ),
-        ("no overrun (emulator)".into(), num(&e["overruns"]) == 0.0),
-        (
-            "no overrun (firmware's health)".into(),
-            num(&v["health"]["tick_overruns"]) == 0.0,
-        ),
-        (
-            "no reset: the firmware's tick count is every tick received".into(),
-            num(&v["counters"]["ticks"]) == ticks && num(&v["restarts"]) == 0.0,
-        ),
+    let mut checks = timing_checks(e, v);
+    checks.extend([
         (
             "telemetry decoded without a bad frame".into(),
             num(&v["bad_frames"]["total"]) == 0.0,
@@ -352,7 +350,7 @@ pub fn check_route_run() -> Result<(u64, u64), String> {
             num(&sim["known_pct"]),
             Tolerance::Absolute(10.0),
         ),
-    ];
+    ]);
     let mut passed = 0;
     for (what, ok) in &checks {
         println!(
