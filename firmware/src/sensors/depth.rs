@@ -1,7 +1,7 @@
 //! VL53L5CX depth sensor (I2C0 at 400 kHz, SDA GP4, SCL GP5, LPn GP6, address 0x29):
 //! publishes one [`DepthScan`](slam_core::DepthScan) per ranging frame into [`DepthInbox`].
 //!
-//! # With the `vl53l5cx` feature (off by default: see `Cargo.toml`)
+//! # With the `vl53l5cx` feature (on by default: see `Cargo.toml`)
 //!
 //! The bus layer is ST's Ultra Lite Driver through the `vl53l5cx-uld` crate. Its API is
 //! blocking (an I2C transfer, or a firmware upload of about 2 s at 400 kHz, holds the
@@ -11,14 +11,16 @@
 //! - core 1 (`ranging_task`): powers the sensor up through LPn, runs the ULD's `init`
 //!   (which uploads the sensor's firmware), sets 8x8 zones at `RANGING_HZ` in continuous
 //!   mode, starts ranging, then polls data-ready every `POLL_PERIOD` and hands each
-//!   frame's distances and target statuses to core 0 through `ZONES` (a `Signal`: the
+//!   frame's distances and target statuses, with the instant it was seen ready (the SLAM
+//!   tick maps the scan at the pose of that moment), to core 0 through `ZONES` (a `Signal`: the
 //!   newest frame wins; it is `CriticalSectionRawMutex`-guarded, which on the RP2040 is a
 //!   hardware spinlock shared by both cores). A failed start-up is counted in
 //!   `depth_init_failures` (on the wire, `depth_start_failures`: a sensor that never
 //!   starts shows as that count climbing), a read error in `depth_bus_errors`; start-up
 //!   is retried with a doubling back-off, and after
 //!   `ERRORS_BEFORE_RESTART` read errors in a row the sensor is power-cycled (LPn) and
-//!   started again.
+//!   started again. The emulator's fault run (`cargo xtask test`) exercises all of this
+//!   with the sensor NACKing for 3 s.
 //! - core 0 (`depth_task`): waits for each frame with a timeout, reduces it to the core's
 //!   8 beams with `drivers::depth::reduce` (middle rows, nearest valid zone per column) and
 //!   publishes the scan. No frame within `FRAME_TIMEOUT` once ranging has begun counts a
