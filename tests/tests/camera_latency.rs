@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{seed_scenario, SEEDS};
+use common::{assert_tag_bounds, seed_scenario, SEEDS};
 use host_sim::run::{run_with_tag_age, RunOutput, TagAge};
 use host_sim::PoseMode;
 
@@ -53,27 +53,8 @@ fn reported_age_keeps_the_seed_bounds() {
         let run = run_late(LATENCY_MS, TagAge::Reported, seed);
         let f = &run.figures;
         assert!(run.frames.iter().all(|fr| fr.tags_age_us == 100_000));
-        let first = f.first_fix_s.unwrap_or(f64::NAN);
-        assert!(
-            (12.0..=16.0).contains(&first),
-            "seed {seed}: first fix {first} s"
-        );
-        assert!(
-            (100..=220).contains(&f.fixes),
-            "seed {seed}: {} fixes",
-            f.fixes
-        );
+        assert_tag_bounds(seed, f);
         assert_eq!(f.fixes_rejected, 0, "seed {seed}: {f:?}");
-        assert!(
-            f.max_error_after_first_fix_cm <= 2.0,
-            "seed {seed}: {} cm after first fix",
-            f.max_error_after_first_fix_cm
-        );
-        assert!(
-            f.max_heading_error_after_first_fix_deg <= 3.5,
-            "seed {seed}: {} deg after first fix",
-            f.max_heading_error_after_first_fix_deg
-        );
         if seed == 1 {
             assert_eq!(f.out_of_place, 0, "{f:?}");
         }

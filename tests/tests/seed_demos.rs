@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{run_seed, SEEDS};
+use common::{assert_tag_bounds, run_seed, SEEDS};
 use host_sim::PoseMode;
 
 const FIXED_SEED: u64 = 1;
@@ -78,26 +78,7 @@ fn tags_over_20_seeds() {
     for seed in SEEDS {
         let tags = run_seed(PoseMode::Tags, seed);
         let f = &tags.figures;
-        let first = f.first_fix_s.unwrap_or(f64::NAN);
-        assert!(
-            (12.0..=16.0).contains(&first),
-            "seed {seed}: first fix at {first} s"
-        );
-        assert!(
-            (100..=220).contains(&f.fixes),
-            "seed {seed}: {} fixes",
-            f.fixes
-        );
-        assert!(
-            f.max_error_after_first_fix_cm <= 2.0,
-            "seed {seed}: {} cm after first fix",
-            f.max_error_after_first_fix_cm
-        );
-        assert!(
-            f.max_heading_error_after_first_fix_deg <= 3.5,
-            "seed {seed}: {} deg after first fix",
-            f.max_heading_error_after_first_fix_deg
-        );
+        assert_tag_bounds(seed, f);
         clean_maps += usize::from(f.out_of_place == 0);
 
         // Until the first fix the tag run is the dead-reckoning run, tick for tick.
