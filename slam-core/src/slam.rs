@@ -279,14 +279,19 @@ impl<const W: usize, const H: usize> Slam<W, H> {
 
         // The scan goes in at the pose of its own moment (after any fix has moved the
         // remembered poses); one older than the history reaches is as good as none.
-        let cells_written = match (frame.depth.as_ref(), self.history.at(frame.depth_age_us)) {
-            (Some(scan), Some(then)) => self.map_scan(scan, &then),
-            (Some(_), None) => {
+        // The history is consulted only when there is a scan to place.
+        let scan = frame
+            .depth
+            .as_ref()
+            .map(|scan| (scan, self.history.at(frame.depth_age_us)));
+        let cells_written = match scan {
+            Some((scan, Some(then))) => self.map_scan(scan, &then),
+            Some((_, None)) => {
                 stale.depth = true;
                 self.counters.depth_stale += 1;
                 0
             }
-            (None, _) => 0,
+            None => 0,
         };
         StepReport {
             pose: self.pose,
