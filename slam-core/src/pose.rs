@@ -212,8 +212,9 @@ mod tests {
             (3, 4),
             (-30_000, 40_000),
         ] {
-            let exact = ((x * x + y * y) as f64).sqrt().floor() as u64;
-            assert_eq!(hypot(x, y), exact, "({x}, {y})");
+            // The floor of the root, by its defining inequality: r^2 <= n < (r + 1)^2.
+            let (n, r) = ((x * x + y * y) as u64, hypot(x, y));
+            assert!(r * r <= n && n < (r + 1) * (r + 1), "({x}, {y}): {r}");
         }
     }
 
