@@ -206,11 +206,12 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
     /// Marks the cells of `walk` free but for `spared`; returns how many were inside the
     /// grid.
     ///
-    /// This is the map's inner loop (a few hundred cells a tick). When both end cells are
-    /// in the grid, so is every cell between (the walk never leaves their bounding box), and
-    /// the loop steps a flat index instead of checking each cell's column and row. Never
-    /// inlined: inlined into the step (and the firmware's task) its state was spilled to
-    /// the stack on the Cortex-M0+, at about 90 cycles a cell.
+    /// Any walk: beams take [`GridMap::mark_free_short`] first, which sends here only what
+    /// its loop leaves out. When both end cells are in the grid, so is every cell between
+    /// (the walk never leaves their bounding box), and the loop steps a flat index instead
+    /// of checking each cell's column and row. Never inlined: inlined into the step (and
+    /// the firmware's task) its state was spilled to the stack on the Cortex-M0+, at about
+    /// 90 cycles a cell.
     #[inline(never)]
     fn mark_free<T: WalkInt>(&mut self, walk: Walk<T>, spared: Option<(i32, i32)>) -> u32 {
         let miss = i32::from(self.evidence.miss);
@@ -278,6 +279,95 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
         visited - u32::from(spared == SEEN)
     }
 
+    /// [`GridMap::mark_free`] for a 32-bit walk (every beam): the common case in one loop
+    /// with one counter, specialised by direction, which the Cortex-M0+ runs from its
+    /// registers.
+    ///
+    /// The walk crosses exactly the first `columns_left + rows_left` boundaries of its
+    /// line in the order of `Walk::advance`'s difference rule; `advance` also counts
+    /// boundaries per axis only to end a segment that stops exactly on a cell corner in
+    /// its own cell. Such a walk, a spared cell anywhere but the end (a beam's hit cell is
+    /// further along the same ray, so it is on the walk only as its end cell), an end
+    /// outside the grid, or evidence that adds where beams pass, takes `mark_free`.
+    fn mark_free_short(&mut self, walk: Walk<i32>, spared: Option<(i32, i32)>) -> u32 {
+        let end = walk.end();
+        let spare_end = spared == Some(end);
+        let spared_on_the_way = !spare_end && spared.is_some_and(|s| walk.spans(s));
+        let (column, row) = (walk.column, walk.row);
+        let inside = |(c, r): (i32, i32)| (c as u32) < W as u32 && (r as u32) < H as u32;
+        if walk.ends_on_corner
+            || spared_on_the_way
+            || self.evidence.miss > 0
+            || !inside((column, row))
+            || !inside(end)
+        {
+            return self.mark_free(walk, spared);
+        }
+        let at = row as usize * W + column as usize;
+        let count = 1 + walk.columns_left + walk.rows_left - u32::from(spare_end);
+        // Along one axis only, the difference must always pick that axis.
+        let steps = match (walk.columns_left, walk.rows_left) {
+            (_, 0) => Steps {
+                diff: -1,
+                delta_column: 0,
+                delta_row: 0,
+            },
+            (0, _) => Steps {
+                diff: 0,
+                delta_column: 0,
+                delta_row: 0,
+            },
+            _ => Steps {
+                diff: walk.diff,
+                delta_column: walk.delta_column,
+                delta_row: walk.delta_row,
+            },
+        };
+        match (walk.step_column > 0, walk.step_row > 0) {
+            (true, true) => self.free_walk::<true, true>(at, steps, count),
+            (true, false) => self.free_walk::<true, false>(at, steps, count),
+            (false, true) => self.free_walk::<false, true>(at, steps, count),
+            (false, false) => self.free_walk::<false, false>(at, steps, count),
+        }
+        count
+    }
+
+    /// Frees `count` cells from flat index `at`, stepping right (`RIGHT`) or left and up
+    /// (`UP`) or down as `steps` decides. Never inlined: alone, its state fits the M0+'s
+    /// registers.
+    #[inline(never)]
+    fn free_walk<const RIGHT: bool, const UP: bool>(
+        &mut self,
+        mut at: usize,
+        steps: Steps,
+        count: u32,
+    ) {
+        let column_step: isize = if RIGHT { 1 } else { -1 };
+        let row_step: isize = if UP { W as isize } else { -(W as isize) };
+        let miss = i32::from(self.evidence.miss);
+        let floor = -i32::from(self.evidence.clamp);
+        let cells = self.cells.as_flattened_mut();
+        let Steps {
+            mut diff,
+            delta_column,
+            delta_row,
+        } = steps;
+        for _ in 0..count {
+            if let Some(cell) = cells.get_mut(at) {
+                // Cells never exceed the clamp, so a negative miss needs only the floor.
+                *cell = (i32::from(*cell) + miss).max(floor) as LogOdds;
+            }
+            // One step past the last cell is computed and never used.
+            if diff < 0 {
+                diff = diff.wrapping_add(delta_column);
+                at = at.wrapping_add_signed(column_step);
+            } else {
+                diff = diff.wrapping_sub(delta_row);
+                at = at.wrapping_add_signed(row_step);
+            }
+        }
+    }
+
     /// Writes one beam: free along it, occupied where it stopped.
     ///
     /// `from` is the sensor's position and `to` where the beam stopped, both map millimetres.
@@ -296,7 +386,7 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
         // One loop per walk width, so the step's width is not decided again per cell.
         let mut written =
             match CellWalk::with_divider(&self.geometry, &self.divider, from, free_end) {
-                CellWalk::Short(walk) => self.mark_free(walk, hit.then_some(hit_cell)),
+                CellWalk::Short(walk) => self.mark_free_short(walk, hit.then_some(hit_cell)),
                 CellWalk::Long(walk) => self.mark_free(walk, hit.then_some(hit_cell)),
             };
         if hit && self.add(hit_cell.0, hit_cell.1, self.evidence.hit) {
@@ -541,6 +631,8 @@ pub struct Walk<T> {
     columns_left: u32,
     /// Row boundaries still to cross before the end cell.
     rows_left: u32,
+    /// The segment ends exactly on a cell corner.
+    ends_on_corner: bool,
     started: bool,
 }
 
@@ -583,9 +675,18 @@ impl<T: WalkInt> Walk<T> {
             delta_row: cell * adx,
             columns_left: (c1 - c0).count(),
             rows_left: (r1 - r0).count(),
+            ends_on_corner: c1 * cell == end.0 && r1 * cell == end.1,
             started: false,
         }
     }
+}
+
+/// A 32-bit walk's difference rule, as [`GridMap::free_walk`] takes it.
+#[derive(Clone, Copy)]
+struct Steps {
+    diff: i32,
+    delta_column: i32,
+    delta_row: i32,
 }
 
 /// The axis a walk's step moved along.
@@ -601,6 +702,13 @@ impl<T: WalkInt> Walk<T> {
             self.column + self.step_column * self.columns_left as i32,
             self.row + self.step_row * self.rows_left as i32,
         )
+    }
+
+    /// Whether `cell` lies in the box the walk spans (its start and end cells' corners).
+    fn spans(&self, cell: (i32, i32)) -> bool {
+        let (end_column, end_row) = self.end();
+        let between = |v: i32, a: i32, b: i32| a.min(b) <= v && v <= a.max(b);
+        between(cell.0, self.column, end_column) && between(cell.1, self.row, end_row)
     }
 
     /// Crosses the next boundary: the axis it moved along, or `None` in the end cell.
@@ -735,9 +843,35 @@ mod tests {
         ));
     }
 
+    /// Writes one beam three times into a fresh grid by `insert_beam` and into another
+    /// by the plain iterator, cell by cell, and checks counts and cells agree.
+    fn assert_beam_as_plain(from: (i32, i32), free_end: (i32, i32), to: (i32, i32), hit: bool) {
+        let mut fast: GridMap<46, 46> = GridMap::new(GEO, Evidence::SEED);
+        let mut plain: GridMap<46, 46> = GridMap::new(GEO, Evidence::SEED);
+        for _ in 0..3 {
+            let n = fast.insert_beam(from, free_end, to, hit);
+            let hit_cell = GEO.cell_of(to.0, to.1);
+            let mut m = 0;
+            for (c, r) in CellWalk::new(&GEO, from, free_end) {
+                if !(hit && (c, r) == hit_cell) && plain.add(c, r, Evidence::SEED.miss) {
+                    m += 1;
+                }
+            }
+            if hit && plain.add(hit_cell.0, hit_cell.1, Evidence::SEED.hit) {
+                m += 1;
+            }
+            assert_eq!(n, m, "{from:?} -> {free_end:?} / {to:?}");
+        }
+        assert_eq!(
+            fast.rows(),
+            plain.rows(),
+            "{from:?} -> {free_end:?} / {to:?}"
+        );
+    }
+
     #[test]
     fn beams_write_exactly_the_cells_their_walk_visits() {
-        // The flat-index loop against the plain one: every walk cell free (bar the hit
+        // The specialised loops against the plain one: every walk cell free (bar the hit
         // cell), in or partly out of the grid, from a fixed pseudo-random sequence.
         let mut state = 0x9e37_79b9_7f4a_7c15_u64;
         let mut next = |span: i32| {
@@ -747,31 +881,35 @@ mod tests {
             ((state >> 33) as i32).rem_euclid(2 * span + 1) - span
         };
         for _ in 0..3_000 {
-            let mut fast: GridMap<46, 46> = GridMap::new(GEO, Evidence::SEED);
-            let mut plain: GridMap<46, 46> = GridMap::new(GEO, Evidence::SEED);
             let from = (next(1_400) + 850, next(1_400) + 850);
             let to = (from.0 + next(2_500), from.1 + next(2_500));
+            // A hit cell anywhere near the end, on the walk or off it.
             let free_end = (to.0 - next(60), to.1 - next(60));
-            let hit = next(1) >= 0;
-            for _ in 0..3 {
-                let n = fast.insert_beam(from, free_end, to, hit);
-                let hit_cell = GEO.cell_of(to.0, to.1);
-                let mut m = 0;
-                for (c, r) in CellWalk::new(&GEO, from, free_end) {
-                    if !(hit && (c, r) == hit_cell) && plain.add(c, r, Evidence::SEED.miss) {
-                        m += 1;
+            assert_beam_as_plain(from, free_end, to, next(1) >= 0);
+            // As a beam casts it: the free end a cell short along the same ray.
+            let (dx, dy) = (to.0 - from.0, to.1 - from.1);
+            let length = (((dx as i64).pow(2) + (dy as i64).pow(2)) as f64)
+                .sqrt()
+                .max(1.0);
+            let short = |d: i32| d - (d as f64 * 50.0 / length) as i32;
+            let free_end = (from.0 + short(dx), from.1 + short(dy));
+            assert_beam_as_plain(from, free_end, to, next(1) >= 0);
+        }
+    }
+
+    #[test]
+    fn walks_ending_on_a_cell_corner_end_in_their_own_cell() {
+        // Every direction into and along corners (multiples of 50 mm from the grid's
+        // corner), where only counting boundaries per axis tells the last step.
+        for from in [(712, 533), (700, 500), (688, 450), (650, 517)] {
+            for x in (400..=1000).step_by(50) {
+                for y in (200..=800).step_by(50) {
+                    for hit in [false, true] {
+                        assert_beam_as_plain(from, (x, y), (x, y), hit);
+                        assert_beam_as_plain(from, (x, y), (2 * x - from.0, 2 * y - from.1), hit);
                     }
                 }
-                if hit && plain.add(hit_cell.0, hit_cell.1, Evidence::SEED.hit) {
-                    m += 1;
-                }
-                assert_eq!(n, m, "{from:?} -> {free_end:?} / {to:?}");
             }
-            assert_eq!(
-                fast.rows(),
-                plain.rows(),
-                "{from:?} -> {free_end:?} / {to:?}"
-            );
         }
     }
 
