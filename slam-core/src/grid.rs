@@ -323,29 +323,58 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
                 delta_row: walk.delta_row,
             },
         };
-        match (walk.step_column > 0, walk.step_row > 0) {
-            (true, true) => self.free_walk::<true, true>(at, steps, count),
-            (true, false) => self.free_walk::<true, false>(at, steps, count),
-            (false, true) => self.free_walk::<false, true>(at, steps, count),
-            (false, false) => self.free_walk::<false, false>(at, steps, count),
+        let (miss, floor) = (self.evidence.miss, -self.evidence.clamp);
+        if (miss, floor) == (Evidence::SEED.miss, -Evidence::SEED.clamp) {
+            self.free_walk_in_direction(
+                walk.step_column,
+                walk.step_row,
+                at,
+                steps,
+                count,
+                SeedMiss,
+            );
+        } else {
+            let miss = AnyMiss {
+                miss: i32::from(miss),
+                floor: i32::from(floor),
+            };
+            self.free_walk_in_direction(walk.step_column, walk.step_row, at, steps, count, miss);
         }
         count
+    }
+
+    /// [`GridMap::free_walk`] for the walk's direction.
+    #[inline(always)]
+    fn free_walk_in_direction<M: Miss>(
+        &mut self,
+        step_column: i32,
+        step_row: i32,
+        at: usize,
+        steps: Steps,
+        count: u32,
+        miss: M,
+    ) {
+        match (step_column > 0, step_row > 0) {
+            (true, true) => self.free_walk::<true, true, M>(at, steps, count, miss),
+            (true, false) => self.free_walk::<true, false, M>(at, steps, count, miss),
+            (false, true) => self.free_walk::<false, true, M>(at, steps, count, miss),
+            (false, false) => self.free_walk::<false, false, M>(at, steps, count, miss),
+        }
     }
 
     /// Frees `count` cells from flat index `at`, stepping right (`RIGHT`) or left and up
     /// (`UP`) or down as `steps` decides. Never inlined: alone, its state fits the M0+'s
     /// registers.
     #[inline(never)]
-    fn free_walk<const RIGHT: bool, const UP: bool>(
+    fn free_walk<const RIGHT: bool, const UP: bool, M: Miss>(
         &mut self,
         mut at: usize,
         steps: Steps,
         count: u32,
+        miss: M,
     ) {
         let column_step: isize = if RIGHT { 1 } else { -1 };
         let row_step: isize = if UP { W as isize } else { -(W as isize) };
-        let miss = i32::from(self.evidence.miss);
-        let floor = -i32::from(self.evidence.clamp);
         let cells = self.cells.as_flattened_mut();
         let Steps {
             mut diff,
@@ -354,8 +383,7 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
         } = steps;
         for _ in 0..count {
             if let Some(cell) = cells.get_mut(at) {
-                // Cells never exceed the clamp, so a negative miss needs only the floor.
-                *cell = (i32::from(*cell) + miss).max(floor) as LogOdds;
+                *cell = miss.apply(*cell);
             }
             // One step past the last cell is computed and never used.
             if diff < 0 {
@@ -382,18 +410,132 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
         to: (i32, i32),
         hit: bool,
     ) -> u32 {
-        let hit_cell = self.divider.cell_of(&self.geometry, to);
-        // One loop per walk width, so the step's width is not decided again per cell.
-        let mut written =
-            match CellWalk::with_divider(&self.geometry, &self.divider, from, free_end) {
-                CellWalk::Short(walk) => self.mark_free_short(walk, hit.then_some(hit_cell)),
-                CellWalk::Long(walk) => self.mark_free(walk, hit.then_some(hit_cell)),
-            };
-        if hit && self.add(hit_cell.0, hit_cell.1, self.evidence.hit) {
-            written += 1;
+        let origin = self.beam_origin(from);
+        self.insert_beam_from(&origin, free_end, to, hit)
+    }
+
+    /// Where beams from `from` (map millimetres) start, worked out once for a scan's beams.
+    pub fn beam_origin(&self, from: (i32, i32)) -> BeamOrigin {
+        let g = &self.geometry;
+        let divider = &self.divider;
+        let cell = (|| {
+            let (x, y) = (
+                from.0.checked_sub(g.origin_x_mm)?,
+                from.1.checked_sub(g.origin_y_mm)?,
+            );
+            let (column, row) = (divider.fast_floor(x)?, divider.fast_floor(y)?);
+            if g.cell_mm >= SHORT_WALK_MM as i32 {
+                return None;
+            }
+            let (left, down) = (x - column * g.cell_mm, y - row * g.cell_mm);
+            Some(OriginCell {
+                x,
+                y,
+                column,
+                row,
+                right: g.cell_mm - left,
+                left,
+                up: g.cell_mm - down,
+                down,
+            })
+        })();
+        BeamOrigin { map_mm: from, cell }
+    }
+
+    /// [`GridMap::insert_beam`] from a start already worked out.
+    pub fn insert_beam_from(
+        &mut self,
+        origin: &BeamOrigin,
+        free_end: (i32, i32),
+        to: (i32, i32),
+        hit: bool,
+    ) -> u32 {
+        let hit_cell = hit.then(|| self.divider.cell_of(&self.geometry, to));
+        let beam = origin
+            .cell
+            .as_ref()
+            .and_then(|o| self.walk_from(o, free_end));
+        let mut written = match beam {
+            Some(walk) => self.mark_free_short(walk, hit_cell),
+            None => {
+                let geometry = &self.geometry;
+                match CellWalk::with_divider(geometry, &self.divider, origin.map_mm, free_end) {
+                    CellWalk::Short(walk) => self.mark_free_short(walk, hit_cell),
+                    CellWalk::Long(walk) => self.mark_free(walk, hit_cell),
+                }
+            }
+        };
+        if let Some((column, row)) = hit_cell {
+            if self.add(column, row, self.evidence.hit) {
+                written += 1;
+            }
         }
         written
     }
+
+    /// [`Walk::new`] from a start cell already worked out, for an end less than
+    /// [`SHORT_WALK_MM`] away along each axis and in reach of the divider's multiply;
+    /// `None` otherwise.
+    #[inline]
+    fn walk_from(&self, o: &OriginCell, end: (i32, i32)) -> Option<Walk<i32>> {
+        let g = &self.geometry;
+        let (x, y) = (
+            end.0.checked_sub(g.origin_x_mm)?,
+            end.1.checked_sub(g.origin_y_mm)?,
+        );
+        let (column, row) = (self.divider.fast_floor(x)?, self.divider.fast_floor(y)?);
+        // Both ends are under 2^15 from the corner, so neither difference overflows.
+        let (dx, dy) = (x - o.x, y - o.y);
+        let (adx, ady) = (dx.abs(), dy.abs());
+        if adx >= SHORT_WALK_MM as i32 || ady >= SHORT_WALK_MM as i32 {
+            return None;
+        }
+        let cell = g.cell_mm;
+        let to_column_edge = if dx > 0 { o.right } else { o.left };
+        let to_row_edge = if dy > 0 { o.up } else { o.down };
+        Some(Walk {
+            column: o.column,
+            row: o.row,
+            step_column: if dx > 0 { 1 } else { -1 },
+            step_row: if dy > 0 { 1 } else { -1 },
+            diff: if dx == 0 || dy == 0 {
+                0
+            } else {
+                to_column_edge * ady - to_row_edge * adx
+            },
+            delta_column: cell * ady,
+            delta_row: cell * adx,
+            columns_left: column.abs_diff(o.column),
+            rows_left: row.abs_diff(o.row),
+            ends_on_corner: column * cell == x && row * cell == y,
+            started: false,
+        })
+    }
+}
+
+/// Where a scan's beams start, worked out once for all of them: the sensor's cell and its
+/// distances to that cell's sides (about a fifth of a beam's set-up on the Cortex-M0+).
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct BeamOrigin {
+    /// The sensor's position, map millimetres.
+    map_mm: (i32, i32),
+    /// The sensor's cell, when its walks can take the short way.
+    cell: Option<OriginCell>,
+}
+
+/// The cell a beam starts in, and where in it.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+struct OriginCell {
+    /// Millimetres from the grid's corner.
+    x: i32,
+    y: i32,
+    column: i32,
+    row: i32,
+    /// Millimetres to the cell's sides: towards +x, -x, +y and -y.
+    right: i32,
+    left: i32,
+    up: i32,
+    down: i32,
 }
 
 /// Floor division by the cell size by a multiply and a shift: the Cortex-M0+ has no
@@ -446,6 +588,13 @@ impl CellDivider {
         } else {
             div_floor(a, self.cell)
         }
+    }
+
+    /// `floor(a / cell)` for `0 <= a < LIMIT` by the multiply; `None` otherwise.
+    #[inline]
+    fn fast_floor(&self, a: i32) -> Option<i32> {
+        ((a as u32) < Self::LIMIT as u32 && self.multiplier != 0)
+            .then(|| ((a as u32 * self.multiplier) >> self.shift) as i32)
     }
 
     /// `floor(a / cell)` in 32 bits.
@@ -616,6 +765,7 @@ impl WalkInt for i64 {
 /// `-delta_row` and `delta_column` (each step moves it towards the other side), which
 /// bounds it by `cell * max(|dx|, |dy|)`: under `2^28` for a short walk, under `2^50`
 /// for any segment between `i32` points over cells under 65 m. Nothing can overflow.
+#[derive(Debug, PartialEq, Eq)]
 pub struct Walk<T> {
     column: i32,
     row: i32,
@@ -678,6 +828,42 @@ impl<T: WalkInt> Walk<T> {
             ends_on_corner: c1 * cell == end.0 && r1 * cell == end.1,
             started: false,
         }
+    }
+}
+
+/// What a beam passing through does to a cell, for [`GridMap::free_walk`].
+///
+/// Cells never exceed the clamp, so a negative miss needs only the floor.
+trait Miss: Copy {
+    /// The cell after one more beam passed through it.
+    fn apply(self, cell: LogOdds) -> LogOdds;
+}
+
+/// The seed's evidence, as constants: the Cortex-M0+ then keeps them in its instructions,
+/// not in two of its eight registers.
+#[derive(Clone, Copy)]
+struct SeedMiss;
+
+impl Miss for SeedMiss {
+    #[inline(always)]
+    fn apply(self, cell: LogOdds) -> LogOdds {
+        const MISS: i32 = Evidence::SEED.miss as i32;
+        const FLOOR: i32 = -(Evidence::SEED.clamp as i32);
+        (i32::from(cell) + MISS).max(FLOOR) as LogOdds
+    }
+}
+
+/// Any other evidence with a negative miss.
+#[derive(Clone, Copy)]
+struct AnyMiss {
+    miss: i32,
+    floor: i32,
+}
+
+impl Miss for AnyMiss {
+    #[inline(always)]
+    fn apply(self, cell: LogOdds) -> LogOdds {
+        (i32::from(cell) + self.miss).max(self.floor) as LogOdds
     }
 }
 
@@ -895,6 +1081,40 @@ mod tests {
             let free_end = (from.0 + short(dx), from.1 + short(dy));
             assert_beam_as_plain(from, free_end, to, next(1) >= 0);
         }
+    }
+
+    #[test]
+    fn walks_from_a_worked_out_origin_equal_new_walks() {
+        let map: GridMap<46, 46> = GridMap::new(GEO, Evidence::SEED);
+        let divider = CellDivider::new(GEO.cell_mm as i64);
+        let mut state = 0x2545_f491_4f6c_dd1d_u64;
+        let mut next = |span: i32| {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            ((state >> 33) as i32).rem_euclid(2 * span + 1) - span
+        };
+        let mut short = 0;
+        for _ in 0..20_000 {
+            // Starts in and out of the grid, corners and sides included.
+            let from = (
+                next(25) * 50 + 1_000 + next(2),
+                next(25) * 50 + 1_000 + next(2),
+            );
+            let to = (from.0 + next(3_000), from.1 + next(3_000));
+            let origin = map.beam_origin(from);
+            let Some(walk) = origin.cell.as_ref().and_then(|o| map.walk_from(o, to)) else {
+                continue;
+            };
+            short += 1;
+            let rel = |p: (i32, i32)| (p.0 - GEO.origin_x_mm, p.1 - GEO.origin_y_mm);
+            assert_eq!(
+                walk,
+                Walk::new(&divider, rel(from), rel(to)),
+                "{from:?} -> {to:?}"
+            );
+        }
+        assert!(short > 5_000, "only {short} walks took the short way");
     }
 
     #[test]

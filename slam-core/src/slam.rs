@@ -341,6 +341,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
 
     fn map_scan(&mut self, scan: &DepthScan, pose: &Pose) -> u32 {
         let origin = (pose.x_mm(), pose.y_mm());
+        let start = self.map.beam_origin(origin);
         let max = self.config.depth.max_range_mm as i32;
         let cell = self.config.geometry.cell_mm;
         let mut written = 0;
@@ -356,18 +357,22 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             let range = range as i32;
             let dir = pose.heading + *angle;
             let (s, c) = (dir.sin(), dir.cos());
-            let point = |r: i32| {
-                (
-                    origin.0 + mul_q16(r as i64, s) as i32,
-                    origin.1 + mul_q16(r as i64, c) as i32,
-                )
+            // `mul_q16`; a range under 2^15 mm times a sine (at most 2^16) fits 32 bits,
+            // one M0+ multiply.
+            let along = |r: i32, f: i32| {
+                if r < 1 << 15 {
+                    (r * f + (1 << 15)) >> 16
+                } else {
+                    mul_q16(i64::from(r), f) as i32
+                }
             };
+            let point = |r: i32| (origin.0 + along(r, s), origin.1 + along(r, c));
             // Free up to a cell short of where the beam stopped (or of the range limit).
             let free_end = point((range.min(max) - cell).max(0));
             let hit = range < max;
             written += self
                 .map
-                .insert_beam(origin, free_end, point(range.min(max)), hit);
+                .insert_beam_from(&start, free_end, point(range.min(max)), hit);
             self.counters.beams_mapped += 1;
         }
         written
