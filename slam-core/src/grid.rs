@@ -279,34 +279,41 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
         visited - u32::from(spared == SEEN)
     }
 
-    /// [`GridMap::mark_free`] for a 32-bit walk (every beam): the common case in one loop
-    /// with one counter, specialised by direction, which the Cortex-M0+ runs from its
-    /// registers.
+    /// Frees a beam's walk from `start`'s cell to `end` (millimetres from the grid's
+    /// corner, in the grid, less than [`SHORT_WALK_MM`] from the start along each axis),
+    /// sparing `spared`; `None` when the walk needs [`GridMap::mark_free`] instead.
     ///
-    /// The walk crosses exactly the first `columns_left + rows_left` boundaries of its
-    /// line in the order of `Walk::advance`'s difference rule; `advance` also counts
-    /// boundaries per axis only to end a segment that stops exactly on a cell corner in
-    /// its own cell. Such a walk, a spared cell anywhere but the end (a beam's hit cell is
-    /// further along the same ray, so it is on the walk only as its end cell), an end
-    /// outside the grid, or evidence that adds where beams pass, takes `mark_free`.
-    fn mark_free_short(&mut self, walk: Walk<i32>, spared: Option<(i32, i32)>) -> u32 {
-        let end = walk.end();
-        let spare_end = spared == Some(end);
-        let spared_on_the_way = !spare_end && spared.is_some_and(|s| walk.spans(s));
-        let (column, row) = (walk.column, walk.row);
-        let inside = |(c, r): (i32, i32)| (c as u32) < W as u32 && (r as u32) < H as u32;
-        if walk.ends_on_corner
-            || spared_on_the_way
-            || self.evidence.miss > 0
-            || !inside((column, row))
-            || !inside(end)
-        {
-            return self.mark_free(walk, spared);
+    /// The common case in one loop with one counter, specialised by direction, which the
+    /// Cortex-M0+ runs from its registers. The walk crosses exactly the first
+    /// `columns + rows` boundaries of its line in the order of `Walk::advance`'s
+    /// difference rule; `advance` also counts boundaries per axis only to end a segment
+    /// that stops exactly on a cell corner in its own cell. Such a walk, a spared cell
+    /// anywhere but the end (a beam's hit cell is further along the same ray, so it is on
+    /// the walk only as its end cell), or evidence that adds where beams pass, is left to
+    /// `mark_free`.
+    #[inline]
+    fn free_ray(
+        &mut self,
+        o: &OriginCell,
+        end: (i32, i32),
+        cell_of_end: (i32, i32),
+        spared: Option<(i32, i32)>,
+    ) -> Option<u32> {
+        let cell = self.geometry.cell_mm;
+        let (column, row) = cell_of_end;
+        let (dx, dy) = (end.0 - o.x, end.1 - o.y);
+        let spare_end = spared == Some(cell_of_end);
+        let between = |v: i32, a: i32, b: i32| a.min(b) <= v && v <= a.max(b);
+        let spared_on_the_way = !spare_end
+            && spared.is_some_and(|(c, r)| between(c, o.column, column) && between(r, o.row, row));
+        let on_corner = column * cell == end.0 && row * cell == end.1;
+        if on_corner || spared_on_the_way || self.evidence.miss > 0 {
+            return None;
         }
-        let at = row as usize * W + column as usize;
-        let count = 1 + walk.columns_left + walk.rows_left - u32::from(spare_end);
+        let (columns, rows) = (column.abs_diff(o.column), row.abs_diff(o.row));
+        let (adx, ady) = (dx.abs(), dy.abs());
         // Along one axis only, the difference must always pick that axis.
-        let steps = match (walk.columns_left, walk.rows_left) {
+        let steps = match (columns, rows) {
             (_, 0) => Steps {
                 diff: -1,
                 delta_column: 0,
@@ -318,43 +325,39 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
                 delta_row: 0,
             },
             _ => Steps {
-                diff: walk.diff,
-                delta_column: walk.delta_column,
-                delta_row: walk.delta_row,
+                diff: (if dx > 0 { o.right } else { o.left }) * ady
+                    - (if dy > 0 { o.up } else { o.down }) * adx,
+                delta_column: cell * ady,
+                delta_row: cell * adx,
             },
         };
+        let at = o.row as usize * W + o.column as usize;
+        let count = 1 + columns + rows - u32::from(spare_end);
+        let direction = (dx > 0, dy > 0);
         let (miss, floor) = (self.evidence.miss, -self.evidence.clamp);
         if (miss, floor) == (Evidence::SEED.miss, -Evidence::SEED.clamp) {
-            self.free_walk_in_direction(
-                walk.step_column,
-                walk.step_row,
-                at,
-                steps,
-                count,
-                SeedMiss,
-            );
+            self.free_walk_in_direction(direction, at, steps, count, SeedMiss);
         } else {
             let miss = AnyMiss {
                 miss: i32::from(miss),
                 floor: i32::from(floor),
             };
-            self.free_walk_in_direction(walk.step_column, walk.step_row, at, steps, count, miss);
+            self.free_walk_in_direction(direction, at, steps, count, miss);
         }
-        count
+        Some(count)
     }
 
-    /// [`GridMap::free_walk`] for the walk's direction.
+    /// [`GridMap::free_walk`] for the walk's direction: right, up.
     #[inline(always)]
     fn free_walk_in_direction<M: Miss>(
         &mut self,
-        step_column: i32,
-        step_row: i32,
+        direction: (bool, bool),
         at: usize,
         steps: Steps,
         count: u32,
         miss: M,
     ) {
-        match (step_column > 0, step_row > 0) {
+        match direction {
             (true, true) => self.free_walk::<true, true, M>(at, steps, count, miss),
             (true, false) => self.free_walk::<true, false, M>(at, steps, count, miss),
             (false, true) => self.free_walk::<false, true, M>(at, steps, count, miss),
@@ -364,7 +367,7 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
 
     /// Frees `count` cells from flat index `at`, stepping right (`RIGHT`) or left and up
     /// (`UP`) or down as `steps` decides. Never inlined: alone, its state fits the M0+'s
-    /// registers.
+    /// registers (bar two).
     #[inline(never)]
     fn free_walk<const RIGHT: bool, const UP: bool, M: Miss>(
         &mut self,
@@ -410,8 +413,12 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
         to: (i32, i32),
         hit: bool,
     ) -> u32 {
-        let origin = self.beam_origin(from);
-        self.insert_beam_from(&origin, free_end, to, hit)
+        let start = self.beam_origin(from);
+        let along = |p: (i32, i32)| Some((p.0.checked_sub(from.0)?, p.1.checked_sub(from.1)?));
+        match (along(free_end), along(to)) {
+            (Some(free), Some(stop)) => self.insert_ray(&start, free, stop, hit),
+            _ => self.insert_beam_any(from, free_end, to, hit),
+        }
     }
 
     /// Where beams from `from` (map millimetres) start, worked out once for a scan's beams.
@@ -424,7 +431,8 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
                 from.1.checked_sub(g.origin_y_mm)?,
             );
             let (column, row) = (divider.fast_floor(x)?, divider.fast_floor(y)?);
-            if g.cell_mm >= SHORT_WALK_MM as i32 {
+            let inside = (column as u32) < W as u32 && (row as u32) < H as u32;
+            if !inside || g.cell_mm >= SHORT_WALK_MM as i32 {
                 return None;
             }
             let (left, down) = (x - column * g.cell_mm, y - row * g.cell_mm);
@@ -442,84 +450,86 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
         BeamOrigin { map_mm: from, cell }
     }
 
-    /// [`GridMap::insert_beam`] from a start already worked out.
-    pub fn insert_beam_from(
+    /// [`GridMap::insert_beam`] for a beam from `start` that stops `free` millimetres
+    /// away (`dx`, `dy`) for the free cells and `to` away where it stopped.
+    pub fn insert_ray(
         &mut self,
-        origin: &BeamOrigin,
-        free_end: (i32, i32),
+        start: &BeamOrigin,
+        free: (i32, i32),
         to: (i32, i32),
         hit: bool,
     ) -> u32 {
-        let hit_cell = hit.then(|| self.divider.cell_of(&self.geometry, to));
-        let beam = origin
-            .cell
-            .as_ref()
-            .and_then(|o| self.walk_from(o, free_end));
-        let mut written = match beam {
-            Some(walk) => self.mark_free_short(walk, hit_cell),
-            None => {
-                let geometry = &self.geometry;
-                match CellWalk::with_divider(geometry, &self.divider, origin.map_mm, free_end) {
-                    CellWalk::Short(walk) => self.mark_free_short(walk, hit_cell),
-                    CellWalk::Long(walk) => self.mark_free(walk, hit_cell),
-                }
-            }
+        let short = |d: (i32, i32)| d.0.unsigned_abs() < 1 << 14 && d.1.unsigned_abs() < 1 << 14;
+        let Some(o) = start.cell.as_ref().filter(|_| short(free) && short(to)) else {
+            return self.insert_beam_any_along(start.map_mm, free, to, hit);
         };
-        if let Some((column, row)) = hit_cell {
-            if self.add(column, row, self.evidence.hit) {
-                written += 1;
-            }
+        // Both under 2^15 from the grid's corner: the sums cannot overflow.
+        let end = (o.x + free.0, o.y + free.1);
+        let stop = (o.x + to.0, o.y + to.1);
+        let divider = &self.divider;
+        let cell_of = |p: (i32, i32)| Some((divider.fast_floor(p.0)?, divider.fast_floor(p.1)?));
+        let inside = |(c, r): (i32, i32)| (c as u32) < W as u32 && (r as u32) < H as u32;
+        let (Some(end_cell), Some(hit_cell)) = (cell_of(end).filter(|&c| inside(c)), cell_of(stop))
+        else {
+            return self.insert_beam_any_along(start.map_mm, free, to, hit);
+        };
+        let spared = hit.then_some(hit_cell);
+        let Some(mut written) = self.free_ray(o, end, end_cell, spared) else {
+            return self.insert_beam_any_along(start.map_mm, free, to, hit);
+        };
+        if hit && self.add(hit_cell.0, hit_cell.1, self.evidence.hit) {
+            written += 1;
         }
         written
     }
 
-    /// [`Walk::new`] from a start cell already worked out, for an end less than
-    /// [`SHORT_WALK_MM`] away along each axis and in reach of the divider's multiply;
-    /// `None` otherwise.
-    #[inline]
-    fn walk_from(&self, o: &OriginCell, end: (i32, i32)) -> Option<Walk<i32>> {
-        let g = &self.geometry;
-        let (x, y) = (
-            end.0.checked_sub(g.origin_x_mm)?,
-            end.1.checked_sub(g.origin_y_mm)?,
-        );
-        let (column, row) = (self.divider.fast_floor(x)?, self.divider.fast_floor(y)?);
-        // Both ends are under 2^15 from the corner, so neither difference overflows.
-        let (dx, dy) = (x - o.x, y - o.y);
-        let (adx, ady) = (dx.abs(), dy.abs());
-        if adx >= SHORT_WALK_MM as i32 || ady >= SHORT_WALK_MM as i32 {
-            return None;
+    /// [`GridMap::insert_beam_any`] with the ends given from `from`.
+    #[cold]
+    #[inline(never)]
+    fn insert_beam_any_along(
+        &mut self,
+        from: (i32, i32),
+        free: (i32, i32),
+        to: (i32, i32),
+        hit: bool,
+    ) -> u32 {
+        let at = |d: (i32, i32)| (from.0.wrapping_add(d.0), from.1.wrapping_add(d.1));
+        self.insert_beam_any(from, at(free), at(to), hit)
+    }
+
+    /// [`GridMap::insert_beam`] the general way, for any segment in or out of the grid.
+    /// Kept out of line (and cold), so the beams' own path stays small enough for the
+    /// Cortex-M0+'s registers.
+    #[cold]
+    #[inline(never)]
+    fn insert_beam_any(
+        &mut self,
+        from: (i32, i32),
+        free_end: (i32, i32),
+        to: (i32, i32),
+        hit: bool,
+    ) -> u32 {
+        let hit_cell = self.divider.cell_of(&self.geometry, to);
+        let spared = hit.then_some(hit_cell);
+        let mut written =
+            match CellWalk::with_divider(&self.geometry, &self.divider, from, free_end) {
+                CellWalk::Short(walk) => self.mark_free(walk, spared),
+                CellWalk::Long(walk) => self.mark_free(walk, spared),
+            };
+        if hit && self.add(hit_cell.0, hit_cell.1, self.evidence.hit) {
+            written += 1;
         }
-        let cell = g.cell_mm;
-        let to_column_edge = if dx > 0 { o.right } else { o.left };
-        let to_row_edge = if dy > 0 { o.up } else { o.down };
-        Some(Walk {
-            column: o.column,
-            row: o.row,
-            step_column: if dx > 0 { 1 } else { -1 },
-            step_row: if dy > 0 { 1 } else { -1 },
-            diff: if dx == 0 || dy == 0 {
-                0
-            } else {
-                to_column_edge * ady - to_row_edge * adx
-            },
-            delta_column: cell * ady,
-            delta_row: cell * adx,
-            columns_left: column.abs_diff(o.column),
-            rows_left: row.abs_diff(o.row),
-            ends_on_corner: column * cell == x && row * cell == y,
-            started: false,
-        })
+        written
     }
 }
 
 /// Where a scan's beams start, worked out once for all of them: the sensor's cell and its
-/// distances to that cell's sides (about a fifth of a beam's set-up on the Cortex-M0+).
+/// distances to that cell's sides.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub struct BeamOrigin {
     /// The sensor's position, map millimetres.
     map_mm: (i32, i32),
-    /// The sensor's cell, when its walks can take the short way.
+    /// The sensor's cell, when it is in the grid and its beams can take the short way.
     cell: Option<OriginCell>,
 }
 
@@ -765,7 +775,6 @@ impl WalkInt for i64 {
 /// `-delta_row` and `delta_column` (each step moves it towards the other side), which
 /// bounds it by `cell * max(|dx|, |dy|)`: under `2^28` for a short walk, under `2^50`
 /// for any segment between `i32` points over cells under 65 m. Nothing can overflow.
-#[derive(Debug, PartialEq, Eq)]
 pub struct Walk<T> {
     column: i32,
     row: i32,
@@ -781,8 +790,6 @@ pub struct Walk<T> {
     columns_left: u32,
     /// Row boundaries still to cross before the end cell.
     rows_left: u32,
-    /// The segment ends exactly on a cell corner.
-    ends_on_corner: bool,
     started: bool,
 }
 
@@ -825,7 +832,6 @@ impl<T: WalkInt> Walk<T> {
             delta_row: cell * adx,
             columns_left: (c1 - c0).count(),
             rows_left: (r1 - r0).count(),
-            ends_on_corner: c1 * cell == end.0 && r1 * cell == end.1,
             started: false,
         }
     }
@@ -888,13 +894,6 @@ impl<T: WalkInt> Walk<T> {
             self.column + self.step_column * self.columns_left as i32,
             self.row + self.step_row * self.rows_left as i32,
         )
-    }
-
-    /// Whether `cell` lies in the box the walk spans (its start and end cells' corners).
-    fn spans(&self, cell: (i32, i32)) -> bool {
-        let (end_column, end_row) = self.end();
-        let between = |v: i32, a: i32, b: i32| a.min(b) <= v && v <= a.max(b);
-        between(cell.0, self.column, end_column) && between(cell.1, self.row, end_row)
     }
 
     /// Crosses the next boundary: the axis it moved along, or `None` in the end cell.
@@ -1081,40 +1080,6 @@ mod tests {
             let free_end = (from.0 + short(dx), from.1 + short(dy));
             assert_beam_as_plain(from, free_end, to, next(1) >= 0);
         }
-    }
-
-    #[test]
-    fn walks_from_a_worked_out_origin_equal_new_walks() {
-        let map: GridMap<46, 46> = GridMap::new(GEO, Evidence::SEED);
-        let divider = CellDivider::new(GEO.cell_mm as i64);
-        let mut state = 0x2545_f491_4f6c_dd1d_u64;
-        let mut next = |span: i32| {
-            state = state
-                .wrapping_mul(6_364_136_223_846_793_005)
-                .wrapping_add(1_442_695_040_888_963_407);
-            ((state >> 33) as i32).rem_euclid(2 * span + 1) - span
-        };
-        let mut short = 0;
-        for _ in 0..20_000 {
-            // Starts in and out of the grid, corners and sides included.
-            let from = (
-                next(25) * 50 + 1_000 + next(2),
-                next(25) * 50 + 1_000 + next(2),
-            );
-            let to = (from.0 + next(3_000), from.1 + next(3_000));
-            let origin = map.beam_origin(from);
-            let Some(walk) = origin.cell.as_ref().and_then(|o| map.walk_from(o, to)) else {
-                continue;
-            };
-            short += 1;
-            let rel = |p: (i32, i32)| (p.0 - GEO.origin_x_mm, p.1 - GEO.origin_y_mm);
-            assert_eq!(
-                walk,
-                Walk::new(&divider, rel(from), rel(to)),
-                "{from:?} -> {to:?}"
-            );
-        }
-        assert!(short > 5_000, "only {short} walks took the short way");
     }
 
     #[test]

@@ -366,13 +366,13 @@ impl<const W: usize, const H: usize> Slam<W, H> {
                     mul_q16(i64::from(r), f) as i32
                 }
             };
-            let point = |r: i32| (origin.0 + along(r, s), origin.1 + along(r, c));
+            let point = |r: i32| (along(r, s), along(r, c));
             // Free up to a cell short of where the beam stopped (or of the range limit).
-            let free_end = point((range.min(max) - cell).max(0));
+            let free = point((range.min(max) - cell).max(0));
             let hit = range < max;
             written += self
                 .map
-                .insert_beam_from(&start, free_end, point(range.min(max)), hit);
+                .insert_ray(&start, free, point(range.min(max)), hit);
             self.counters.beams_mapped += 1;
         }
         written
