@@ -366,8 +366,9 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
     }
 
     /// Frees `count` cells from flat index `at`, stepping right (`RIGHT`) or left and up
-    /// (`UP`) or down as `steps` decides. Never inlined: alone, its state fits the M0+'s
-    /// registers (bar two).
+    /// (`UP`) or down as `steps` decides. Never inlined: alone, its state nearly fits the
+    /// M0+'s registers. Each step is looked up by the difference's sign bit, which the M0+
+    /// does in fewer cycles than the compare-and-select the compiler makes of an `if`.
     #[inline(never)]
     fn free_walk<const RIGHT: bool, const UP: bool, M: Miss>(
         &mut self,
@@ -384,18 +385,18 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
             delta_column,
             delta_row,
         } = steps;
+        let by_sign = [
+            (delta_row.wrapping_neg(), row_step),
+            (delta_column, column_step),
+        ];
         for _ in 0..count {
             if let Some(cell) = cells.get_mut(at) {
                 *cell = miss.apply(*cell);
             }
             // One step past the last cell is computed and never used.
-            if diff < 0 {
-                diff = diff.wrapping_add(delta_column);
-                at = at.wrapping_add_signed(column_step);
-            } else {
-                diff = diff.wrapping_sub(delta_row);
-                at = at.wrapping_add_signed(row_step);
-            }
+            let (d, step) = by_sign[(diff as u32 >> 31) as usize];
+            diff = diff.wrapping_add(d);
+            at = at.wrapping_add_signed(step);
         }
     }
 
