@@ -166,6 +166,11 @@ fn bench(args: &[String]) -> Result<(), String> {
         n("step_cycles_max")
     );
     println!(
+        "  steps over 20000 cycles: {} of {}",
+        n("step_cycles_over_budget"),
+        n("ticks_seen")
+    );
+    println!(
         "  beams mapped {}, core 1 load {} % (the depth sensor's driver)",
         figures["view"]["counters"]["beams_mapped"], e["devices"]["core1"]["load_pct"]
     );
