@@ -313,7 +313,7 @@ pub fn best_pair<'a>(
     known: &'a TagMap,
 ) -> Option<(Sighting<'a>, Sighting<'a>)> {
     let mut best = None;
-    let mut best_len = 0i64;
+    let mut best_len = 0u64;
     for (i, a) in seen.iter().enumerate() {
         let Some(ta) = known.get(a.id) else { continue };
         for b in seen.iter().skip(i + 1) {
@@ -321,8 +321,16 @@ pub fn best_pair<'a>(
             if a.id == b.id {
                 continue;
             }
-            let (dx, dy) = ((tb.x_mm - ta.x_mm) as i64, (tb.y_mm - ta.y_mm) as i64);
-            let len = dx * dx + dy * dy;
+            let (dx, dy) = (
+                (tb.x_mm as i64 - ta.x_mm as i64).unsigned_abs(),
+                (tb.y_mm as i64 - ta.y_mm as i64).unsigned_abs(),
+            );
+            // Squared lengths: in 32 bits for tags under 32 m apart, as on any real map.
+            let len = if dx < 1 << 15 && dy < 1 << 15 {
+                u64::from(dx as u32 * dx as u32 + dy as u32 * dy as u32)
+            } else {
+                (dx * dx).saturating_add(dy * dy)
+            };
             if len > best_len {
                 best_len = len;
                 best = Some(((a, ta), (b, tb)));
@@ -334,17 +342,61 @@ pub fn best_pair<'a>(
 
 /// Whether a fix is close enough to the prediction to believe.
 pub fn within_gate(fix: &Pose, predicted: &Pose, config: &FixConfig) -> bool {
-    // Squared distances: no square root on the M0+ for a yes/no answer.
     let (dx, dy) = (
-        fix.x_um as i64 - predicted.x_um as i64,
-        fix.y_um as i64 - predicted.y_um as i64,
+        (fix.x_um as i64 - predicted.x_um as i64).unsigned_abs(),
+        (fix.y_um as i64 - predicted.y_um as i64).unsigned_abs(),
     );
-    let gate_um = config.gate_position_mm as u64 * UM_PER_MM as u64;
-    let far = (dx.unsigned_abs() as u128).pow(2) + (dy.unsigned_abs() as u128).pow(2)
-        > (gate_um as u128).pow(2);
-    let turned = fix.heading.diff(predicted.heading).unsigned_abs()
-        > Angle::from_millidegrees(config.gate_heading_mdeg as i64).bits();
-    !far && !turned
+    let gate_mm = config.gate_position_mm;
+    let gate_um = if gate_mm <= u32::MAX / UM_PER_MM as u32 {
+        u64::from(gate_mm * UM_PER_MM as u32)
+    } else {
+        wide_um(gate_mm)
+    };
+    // Squared distances (no square root on the M0+ for a yes/no answer), and only where
+    // the box round the gate's circle and the diamond inside it do not settle it.
+    let far = if dx > gate_um || dy > gate_um {
+        true
+    } else if dx + dy <= gate_um {
+        false
+    } else if gate_um < 1 << 31 {
+        dx * dx + dy * dy > gate_um * gate_um
+    } else {
+        (dx as u128).pow(2) + (dy as u128).pow(2) > (gate_um as u128).pow(2)
+    };
+    !far && !turned_beyond(
+        fix.heading.diff(predicted.heading),
+        config.gate_heading_mdeg,
+    )
+}
+
+/// Whether a turn of `diff` binary units is larger than `limit_mdeg` millidegrees as
+/// [`Angle::from_millidegrees`] rounds them, `|diff| > bits(limit)`, without its 64-bit
+/// divisions: with `bits = floor(n / 360000)`, that is `|diff| * 360000 > n`.
+fn turned_beyond(diff: i32, limit_mdeg: u32) -> bool {
+    const MDEG_PER_TURN: u32 = 360_000;
+    let turns = if limit_mdeg < MDEG_PER_TURN {
+        limit_mdeg
+    } else {
+        whole_turns_off(limit_mdeg)
+    };
+    let n = ((turns as u64) << 32) + (MDEG_PER_TURN / 2) as u64;
+    diff.unsigned_abs() as u64 * MDEG_PER_TURN as u64 > n
+}
+
+/// `mdeg` less its whole turns. Out of line, so that the division (a library call on the
+/// M0+) is not done ahead of the test that almost always makes it needless.
+#[cold]
+#[inline(never)]
+fn whole_turns_off(mdeg: u32) -> u32 {
+    mdeg % 360_000
+}
+
+/// `mm` (over 4,294 km) in micrometres, for [`within_gate`]; out of line like
+/// [`wide_midpoint_um`].
+#[cold]
+#[inline(never)]
+fn wide_um(mm: u32) -> u64 {
+    mm as u64 * UM_PER_MM as u64
 }
 
 #[cfg(test)]
@@ -457,6 +509,24 @@ mod tests {
         let zero = turn_between((0, 0), (3, 4));
         assert_eq!(zero.angle, -Angle::of_vector(3, 4));
         assert_eq!((zero.sin, zero.cos), (zero.angle.sin(), zero.angle.cos()));
+    }
+
+    #[test]
+    fn pairs_of_far_tags() {
+        let far = |id, x_mm| KnownTag {
+            id,
+            x_mm,
+            y_mm: -x_mm,
+        };
+        let map = TagMap::new(&[far(1, i32::MAX), far(2, -i32::MAX), far(3, 0)]).unwrap();
+        let d = |id| TagDetection {
+            id,
+            cx_centipx: 16000,
+            distance_mm: 1000,
+        };
+        let seen = [d(3), d(1), d(2)];
+        let ((a, _), (b, _)) = best_pair(&seen, &map).unwrap();
+        assert_eq!((a.id, b.id), (1, 2));
     }
 
     #[test]

@@ -128,6 +128,21 @@ fn ray_error(cx: i32) -> f64 {
         .max((q16(cos) - want.cos()).abs())
 }
 
+/// `within_gate` as first written, the model for the faster one: squared distances in
+/// 128 bits and the heading limit through `Angle::from_millidegrees`.
+fn within_gate_model(fix: &Pose, predicted: &Pose, config: &FixConfig) -> bool {
+    let (dx, dy) = (
+        fix.x_um as i64 - predicted.x_um as i64,
+        fix.y_um as i64 - predicted.y_um as i64,
+    );
+    let gate_um = config.gate_position_mm as u64 * 1000;
+    let far = (dx.unsigned_abs() as u128).pow(2) + (dy.unsigned_abs() as u128).pow(2)
+        > (gate_um as u128).pow(2);
+    let turned = fix.heading.diff(predicted.heading).unsigned_abs()
+        > Angle::from_millidegrees(config.gate_heading_mdeg as i64).bits();
+    !far && !turned
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 2000, ..config() })]
 
@@ -163,6 +178,43 @@ proptest! {
         let near = (cx as i64 - 16_000).unsigned_abs() < 1 << 15;
         let err = ray_error(cx);
         prop_assert!(err <= if near { RAY_BOUND } else { RAY_BOUND_FAR }, "cx {}: {:e}", cx, err);
+    }
+
+    /// `within_gate` decides as its model does, everywhere and on the edges: fixes on the
+    /// gate's circle and a unit either side, turns of the limit's bits and a unit either
+    /// side, gates of any size.
+    #[test]
+    fn gate_matches_model(
+        px in any::<i32>(), py in any::<i32>(), ph in any::<u32>(),
+        angle in any::<u32>(), edge in -2i64..=2, turn_edge in -1i64..=1,
+        gate_mm in prop_oneof![0u32..1000, any::<u32>()],
+        gate_mdeg in prop_oneof![0u32..400_000, any::<u32>()],
+        offsets in (any::<i32>(), any::<i32>(), any::<u32>()),
+    ) {
+        let config = FixConfig { gate_position_mm: gate_mm, gate_heading_mdeg: gate_mdeg, ..FixConfig::SEED };
+        let predicted = Pose { x_um: px, y_um: py, heading: Angle::from_bits(ph) };
+        let gate_um = gate_mm as f64 * 1000.0;
+        let a = angle as f64 * reference::RAD_PER_BIT;
+        let limit = Angle::from_millidegrees(gate_mdeg as i64).bits() as i64;
+        let saturate = |v: f64| v.clamp(i32::MIN as f64, i32::MAX as f64) as i32;
+        let candidates = [
+            // On the circle (and a unit out or in), at the limit's turn (and a unit either side).
+            Pose {
+                x_um: saturate(px as f64 + (gate_um * a.sin()).round() + edge as f64),
+                y_um: saturate(py as f64 + (gate_um * a.cos()).round()),
+                heading: Angle::from_bits((ph as i64 + (limit + turn_edge) * if angle & 1 == 0 { 1 } else { -1 }) as u32),
+            },
+            // Anywhere.
+            Pose { x_um: offsets.0, y_um: offsets.1, heading: Angle::from_bits(offsets.2) },
+            Pose { x_um: px.wrapping_add(offsets.0 >> 12), y_um: py.wrapping_add(offsets.1 >> 12), heading: Angle::from_bits(ph.wrapping_add(offsets.2 >> 4)) },
+        ];
+        for fix in candidates {
+            prop_assert_eq!(
+                tagfix::within_gate(&fix, &predicted, &config),
+                within_gate_model(&fix, &predicted, &config),
+                "{:?} vs {:?}", fix, predicted
+            );
+        }
     }
 
     /// `CameraConfig::bearing` is `atan((cx - 160) / 92.4)` within 1.5e-5 degrees, over
