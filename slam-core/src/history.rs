@@ -6,7 +6,7 @@
 //! and taking it as the pose now puts the estimate a tick behind (9 mm at 86 mm/s, 3
 //! degrees in a 31.5 deg/s turn).
 
-use crate::pose::{mul_q16, Pose, RigidMotion};
+use crate::pose::{mul_q16, mul_q16_32, Pose, RigidMotion};
 use crate::Angle;
 
 /// Poses kept, the current tick's included: pictures up to the last `HISTORY_LEN - 1`
@@ -108,21 +108,50 @@ impl PoseHistory {
 /// The pose `back_us` after `older` on the way to `newer`, which came `span_us` after it
 /// (`0 <= back_us <= span_us`, `span_us > 0`).
 fn interpolate(older: &Pose, newer: &Pose, back_us: u32, span_us: u32) -> Pose {
-    // The fraction in Q16 by one 32-bit division: both scaled down until the span fits
-    // 15 bits, so `back << 16` fits 31 (a 100 ms span loses 4 us of resolution).
-    let shift = (32 - span_us.leading_zeros()).saturating_sub(15);
-    let (back, span) = (back_us >> shift, (span_us >> shift).max(1));
-    let fraction = ((back.min(span) << 16) / span) as i32;
-    let part = |from: i32, to: i32| {
+    // The fraction in Q16: both scaled down until the span fits 15 bits (a 100 ms span
+    // loses 4 us of resolution), by a loop of shifts (two for a tick) rather than a
+    // count of leading zeros, a library call on the M0+.
+    let (mut back, mut span) = (back_us, span_us);
+    while span >= 1 << 15 {
+        back >>= 1;
+        span >>= 1;
+    }
+    let fraction = fraction_q16(back, span.max(1));
+    let part = |from: i32, to: i32| match to.checked_sub(from) {
         // Between `from` and `to`, so it fits an `i32`.
-        (from as i64 + mul_q16(to as i64 - from as i64, fraction)) as i32
+        Some(d) if d != i32::MIN => from + mul_q16_32(d, fraction),
+        _ => (from as i64 + mul_q16(to as i64 - from as i64, fraction)) as i32,
     };
-    let turn = newer.heading.diff(older.heading) as i64;
+    let turn = match newer.heading.diff(older.heading) {
+        i32::MIN => mul_q16(i32::MIN as i64, fraction) as i32,
+        turn => mul_q16_32(turn, fraction),
+    };
     Pose {
         x_um: part(older.x_um, newer.x_um),
         y_um: part(older.y_um, newer.y_um),
-        heading: older.heading + Angle::from_bits(mul_q16(turn, fraction) as u32),
+        heading: older.heading + Angle::from_bits(turn as u32),
     }
+}
+
+/// `part / whole` in Q16 for `whole` in `1..2^15`, `part` clamped to `whole`: sixteen steps
+/// of long division, about half the cycles of the library's general one on the M0+ (which
+/// has no divide instruction).
+fn fraction_q16(part: u32, whole: u32) -> i32 {
+    if part >= whole {
+        return 1 << 16;
+    }
+    // One register holds the remainder (top half, always below `whole`, so its double
+    // fits) and the quotient's bits as they come (bottom half): each step doubles both,
+    // and where the remainder reaches `whole` takes it off and sets the new bit.
+    let divisor = whole << 16;
+    let mut both = part << 16;
+    for _ in 0..16 {
+        both <<= 1;
+        if both >= divisor {
+            both = both - divisor + 1;
+        }
+    }
+    (both & 0xFFFF) as i32
 }
 
 #[cfg(test)]
@@ -200,6 +229,16 @@ mod tests {
         h.push(Pose::from_mm_mdeg(10, 0, 0), 0);
         assert_eq!(h.at(0), Some(Pose::from_mm_mdeg(10, 0, 0)));
         assert_eq!(h.at(1), None);
+    }
+
+    #[test]
+    fn fractions_match_division() {
+        for whole in (1..1 << 15).step_by(7).chain([1, 2, (1 << 15) - 1]) {
+            for part in [0, 1, whole / 3, whole / 2, whole - 1, whole, whole + 5] {
+                let want = ((part.min(whole) << 16) / whole) as i32;
+                assert_eq!(fraction_q16(part, whole), want, "{part} / {whole}");
+            }
+        }
     }
 
     #[test]

@@ -77,11 +77,40 @@ impl RigidMotion {
     }
 
     /// `pose` carried by the motion. `from` itself lands exactly on `to`, bit for bit.
+    ///
+    /// Never inlined: in a loop inside `Slam::step` its state spills to the stack (the M0+
+    /// has eight low registers), which doubles its cost.
+    #[inline(never)]
     pub fn apply(&self, pose: &Pose) -> Pose {
-        let dx = pose.x_um as i64 - self.from.x_um as i64;
-        let dy = pose.y_um as i64 - self.from.y_um as i64;
+        let (Some(dx), Some(dy)) = (
+            pose.x_um.checked_sub(self.from.x_um),
+            pose.y_um.checked_sub(self.from.y_um),
+        ) else {
+            return self.apply_wide(pose);
+        };
+        if (dx.unsigned_abs() | dy.unsigned_abs()) >= 1 << 30 {
+            return self.apply_wide(pose);
+        }
         // Turning clockwise (the heading convention) by `t` takes the nose direction
         // (sin h, cos h) to (sin(h + t), cos(h + t)): (x, y) -> (x cos t + y sin t, y cos t - x sin t).
+        // The poses a fix carries are ticks apart: 32-bit multiplies, and each sum of two
+        // products of lengths under 2^30 fits 31 bits, so adding it to `to` saturating is
+        // the clamp.
+        let x = mul_q16_32(dx, self.cos) + mul_q16_32(dy, self.sin);
+        let y = mul_q16_32(dy, self.cos) - mul_q16_32(dx, self.sin);
+        Pose {
+            x_um: self.to.x_um.saturating_add(x),
+            y_um: self.to.y_um.saturating_add(y),
+            heading: pose.heading + self.turn,
+        }
+    }
+
+    /// [`RigidMotion::apply`] for poses a kilometre or more from `from`, in 64 bits.
+    #[cold]
+    #[inline(never)]
+    fn apply_wide(&self, pose: &Pose) -> Pose {
+        let dx = pose.x_um as i64 - self.from.x_um as i64;
+        let dy = pose.y_um as i64 - self.from.y_um as i64;
         let x = self.to.x_um as i64 + mul_q16(dx, self.cos) + mul_q16(dy, self.sin);
         let y = self.to.y_um as i64 + mul_q16(dy, self.cos) - mul_q16(dx, self.sin);
         Pose {
@@ -132,7 +161,8 @@ pub(crate) const fn div_floor(a: i64, b: i64) -> i64 {
 /// `a * b >> 16` rounded to nearest, in 64 bits: multiplies a length by a Q16 factor.
 ///
 /// A beam's length (under 16 m) times a sine or cosine (at most 1.0) fits in 32 bits, which
-/// the Cortex-M0+ multiplies in one instruction instead of a 64-bit library call.
+/// the Cortex-M0+ multiplies in one instruction instead of a 64-bit library call. Other
+/// 32-bit lengths can take [`mul_q16_32`].
 pub(crate) const fn mul_q16(a: i64, b: i32) -> i64 {
     if a > -(1 << 14) && a < (1 << 14) && b >= -(1 << 16) && b <= (1 << 16) {
         ((a as i32 * b + (1 << 15)) >> 16) as i64
@@ -141,13 +171,31 @@ pub(crate) const fn mul_q16(a: i64, b: i32) -> i64 {
     }
 }
 
+/// [`mul_q16`] of a 32-bit `a` (not `i32::MIN`) and a Q16 factor `b` within `+-1.0`,
+/// exactly, in two 32-bit multiplies instead of a 64-bit library call: with `a` in halves,
+/// `a = hi * 2^16 + lo`, `(a b + 2^15) >> 16 = hi b + ((lo b + 2^15) >> 16)`, and
+/// `lo |b|` is below `2^32`.
+pub(crate) const fn mul_q16_32(a: i32, b: i32) -> i32 {
+    let (hi, lo) = (a >> 16, a as u32 & 0xFFFF);
+    let part = lo * b.unsigned_abs();
+    let low = if b >= 0 {
+        ((part + (1 << 15)) >> 16) as i32
+    } else {
+        // floor((2^15 - part) / 2^16) = -ceil((part - 2^15) / 2^16).
+        -(((part + (1 << 15) - 1) >> 16) as i32)
+    };
+    // `hi * b` alone can overflow (by one, at -2^15 x -2^16) where the sum does not.
+    hi.wrapping_mul(b).wrapping_add(low)
+}
+
 /// `sqrt(x^2 + y^2)` rounded down, without overflow for any inputs (saturates at `u64::MAX`).
 pub(crate) fn hypot(x: i64, y: i64) -> u64 {
     let (x, y) = (x.unsigned_abs(), y.unsigned_abs());
     if x < 1 << 15 && y < 1 << 15 {
         // Millimetre lengths on the mat: the squares' sum fits 31 bits, and the M0+ takes
         // a 32-bit root several times faster than a 128-bit square and a 64-bit root.
-        return u64::from(isqrt32((x * x + y * y) as u32));
+        let (x, y) = (x as u32, y as u32);
+        return u64::from(isqrt32(x * x + y * y));
     }
     let (x, y) = (x as u128, y as u128);
     isqrt((x * x + y * y).min(u64::MAX as u128) as u64)
@@ -161,7 +209,7 @@ pub(crate) fn hypot(x: i64, y: i64) -> u64 {
 macro_rules! isqrt_fn {
     ($(#[$doc:meta])* $name:ident, $t:ty) => {
         $(#[$doc])*
-        pub(crate) fn $name(n: $t) -> $t {
+        pub(crate) const fn $name(n: $t) -> $t {
             let mut rem = n;
             let mut root: $t = 0;
             // The largest power of four not above n.
@@ -232,6 +280,14 @@ mod tests {
             1 << 14,
             -(1 << 14),
             1 << 30,
+            -(1 << 30),
+            123_456_789,
+            -987_654_321,
+            i32::MAX as i64,
+            i32::MIN as i64 + 1,
+            i32::MIN as i64,
+            1 << 31,
+            -(1 << 31) - 1,
         ] {
             for b in [
                 0,
@@ -248,6 +304,29 @@ mod tests {
             ] {
                 assert_eq!(mul_q16(a, b), (a * b as i64 + (1 << 15)) >> 16, "{a} x {b}");
             }
+        }
+    }
+
+    #[test]
+    fn q16_products_in_32_bits_are_exact() {
+        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+        let mut next = move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            state
+        };
+        for _ in 0..1_000_000 {
+            let r = next();
+            // Lengths of every width, factors across +-1.0 with its ends.
+            let a = ((r >> 32) as i32 >> (r % 32)).max(i32::MIN + 1);
+            let b = match (r >> 8) % 8 {
+                0 => 1 << 16,
+                1 => -(1 << 16),
+                _ => ((r >> 12) % (1 << 17)) as i32 - (1 << 16),
+            };
+            let want = (a as i64 * b as i64 + (1 << 15)) >> 16;
+            assert_eq!(mul_q16_32(a, b) as i64, want, "{a} x {b}");
         }
     }
 
@@ -325,6 +404,29 @@ mod tests {
         };
         assert_eq!(RigidMotion::carrying(&from, &to).apply(&from), to);
         assert_eq!(RigidMotion::carrying(&from, &from).apply(&to), to);
+    }
+
+    #[test]
+    fn rigid_motion_in_32_bits_matches_64() {
+        let mut state = 0x2545_F491_4F6C_DD1Du64;
+        let mut next = move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            state
+        };
+        let pose = |r: u64, spread: u32| Pose {
+            x_um: (r >> 32) as i32 >> spread,
+            y_um: r as i32 >> spread,
+            heading: Angle::from_bits((r >> 16) as u32),
+        };
+        for _ in 0..200_000 {
+            // Poses millimetres, metres or kilometres apart, up to the i32 limits.
+            let spread = (next() % 24) as u32;
+            let (from, to, p) = (pose(next(), spread), pose(next(), 0), pose(next(), spread));
+            let motion = RigidMotion::carrying(&from, &to);
+            assert_eq!(motion.apply(&p), motion.apply_wide(&p), "{motion:?} {p:?}");
+        }
     }
 
     #[test]

@@ -4,7 +4,7 @@ mod reference;
 
 use proptest::prelude::*;
 use reference::{bits_to_rad, RAD_PER_BIT};
-use slam_core::angle::TRIG_ONE;
+use slam_core::angle::{sin_cos_of_vector, Direction, TRIG_ONE};
 use slam_core::Angle;
 
 /// Bound on `|sin_q16 / 2^16 - sin|` and the same for cosine: 2e-5 (1.31 Q16 LSB), as the
@@ -18,6 +18,29 @@ const TRIG_BOUND: f64 = 2e-5;
 /// scaling of huge inputs to 29 bits (2^-28 rad = 2e-7 degrees): 1.2e-5 degrees. We assert
 /// 1.5e-5 degrees (179 binary units).
 const OF_VECTOR_BOUND_DEG: f64 = 1.5e-5;
+
+/// Bound on `|sin_cos_of_vector(x, y) / 2^16 - (x, y) / |(x, y)||` per component while both
+/// components are within `2^15` (the scaling to 15 bits is then exact): 2e-5. (Inverse roots
+/// by a 257-entry table in Q24 with linear interpolation, chord error 3/32 x^-2 h^2 =
+/// 5.7e-6 of the value at h = 1/128; the product's rounding to Q16, 7.6e-6; the Q24
+/// rounding and the 12-bit interpolation step, under 1e-7: 1.4e-5 in all.)
+const UNIT_BOUND: f64 = 2e-5;
+
+/// The same for any components: cutting each to 15 bits (towards zero, under one unit of
+/// at least 2^14) turns the direction by under 2^-14 rad = 6.1e-5 on top: 8.2e-5.
+const UNIT_BOUND_WIDE: f64 = 8.2e-5;
+
+/// Bound on `Direction::of_vector(x, y).angle` against `atan2(x, y)`, in degrees, while both
+/// components are within `2^15`: the unit vector's error (`UNIT_BOUND`) through an arcsine's
+/// slope of at most 1.42 (the table's argument stays below 1/sqrt(2)), 2.9e-5 rad, plus the
+/// arcsine table's chord error (h^2 / 8 x asin'' <= 2 at h = 1/256: 3.9e-6 rad) and its
+/// CORDIC entries (1e-5 degrees): 1.9e-3 degrees. We assert 2e-3.
+const DIRECTION_BOUND_DEG: f64 = 2e-3;
+
+/// The same for any components: the 15-bit cut turns the direction by up to 6.1e-5 rad
+/// itself, and its sine and cosine by as much (through the arcsine: 8.7e-5 rad): 6e-3
+/// degrees in all.
+const DIRECTION_BOUND_WIDE_DEG: f64 = 6e-3;
 
 fn q16(v: i32) -> f64 {
     v as f64 / TRIG_ONE as f64
@@ -126,8 +149,114 @@ fn of_vector_sweep() {
     println!("worst of_vector error over the sweep: {worst:e} deg");
 }
 
+/// The worst errors of `sin_cos_of_vector` and `Direction::of_vector` against `f64` over
+/// `n` pseudo-random vectors: components within `2^15`, or (`wide`) of every width.
+fn direction_errors(n: u32, wide: bool) -> (f64, f64) {
+    let mut state = 0x2545_F491_4F6C_DD1Du64;
+    let (mut unit, mut angle) = (0.0f64, 0.0f64);
+    for _ in 0..n {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        let s = state;
+        let (x, y) = if wide {
+            ((s >> 32) as i32 >> (s % 31), (s as i32) >> ((s >> 8) % 31))
+        } else {
+            ((s >> 32) as i32 >> 17, (s as i32) >> 17)
+        };
+        if x == 0 && y == 0 {
+            continue;
+        }
+        let (e_unit, e_angle) = direction_error(x, y);
+        unit = unit.max(e_unit);
+        angle = angle.max(e_angle);
+    }
+    (unit, angle)
+}
+
+/// The error of `sin_cos_of_vector(x, y)` (worse component) and of
+/// `Direction::of_vector(x, y)`'s angle in degrees; its sine and cosine must be the former's.
+fn direction_error(x: i32, y: i32) -> (f64, f64) {
+    let (sin, cos) = sin_cos_of_vector(x, y);
+    assert!(sin.abs() <= TRIG_ONE && cos.abs() <= TRIG_ONE, "({x}, {y})");
+    let n = (x as f64).hypot(y as f64);
+    let unit = (q16(sin) - x as f64 / n)
+        .abs()
+        .max((q16(cos) - y as f64 / n).abs());
+    let d = Direction::of_vector(x, y);
+    assert_eq!((d.sin, d.cos), (sin, cos), "({x}, {y})");
+    let truth = (x as f64).atan2(y as f64);
+    let angle = reference::angle_diff(bits_to_rad(d.angle.bits()), truth)
+        .to_degrees()
+        .abs();
+    (unit, angle)
+}
+
+/// Three million vectors, a million with 15-bit components and two with components of
+/// every width: report the worst errors.
+#[test]
+fn direction_sweep() {
+    let (unit, angle) = direction_errors(1_000_000, false);
+    assert!(unit <= UNIT_BOUND && angle <= DIRECTION_BOUND_DEG);
+    println!("worst sin_cos_of_vector error within 2^15: {unit:e}, Direction angle {angle:e} deg");
+    let (unit, angle) = direction_errors(2_000_000, true);
+    assert!(unit <= UNIT_BOUND_WIDE && angle <= DIRECTION_BOUND_WIDE_DEG);
+    println!("worst sin_cos_of_vector error, any width: {unit:e}, Direction angle {angle:e} deg");
+}
+
+/// Axes, diagonals and the zero vector: exact where the value is exact.
+#[test]
+fn direction_axes() {
+    for m in [1, 3, 1000, (1 << 15) - 1, 1 << 15, 1 << 20, i32::MAX] {
+        assert_eq!(sin_cos_of_vector(0, m), (0, TRIG_ONE));
+        assert_eq!(sin_cos_of_vector(m, 0), (TRIG_ONE, 0));
+        assert_eq!(sin_cos_of_vector(0, -m), (0, -TRIG_ONE));
+        assert_eq!(sin_cos_of_vector(-m, 0), (-TRIG_ONE, 0));
+        assert_eq!(Direction::of_vector(m, 0).angle, Angle::QUARTER_TURN);
+        assert_eq!(Direction::of_vector(0, -m).angle, Angle::HALF_TURN);
+        assert_eq!(Direction::of_vector(-m, 0).angle, -Angle::QUARTER_TURN);
+        assert_eq!(Direction::of_vector(0, m).angle, Angle::ZERO);
+        let (ub, ab) = if m < 1 << 15 {
+            (UNIT_BOUND, DIRECTION_BOUND_DEG)
+        } else {
+            (UNIT_BOUND_WIDE, DIRECTION_BOUND_WIDE_DEG)
+        };
+        for (x, y) in [(m, m), (-m, m), (m, -m), (-m, -m), (m, 1), (1, m)] {
+            let (unit, angle) = direction_error(x, y);
+            assert!(
+                unit <= ub && angle <= ab,
+                "({x}, {y}): {unit:e}, {angle:e} deg"
+            );
+        }
+    }
+    assert_eq!(sin_cos_of_vector(0, 0), (0, TRIG_ONE));
+    assert_eq!(Direction::of_vector(0, 0).angle, Angle::ZERO);
+    let (unit, angle) = direction_error(i32::MIN, i32::MIN);
+    assert!(unit <= UNIT_BOUND_WIDE && angle <= DIRECTION_BOUND_WIDE_DEG);
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 2000, failure_persistence: None, ..ProptestConfig::default() })]
+
+    /// `sin_cos_of_vector` within 2e-5 of `(x, y) / |(x, y)|` and `Direction::of_vector`
+    /// within 2e-3 degrees of `atan2(x, y)` for components within `2^15`; 8.2e-5 and 6e-3
+    /// degrees for any.
+    #[test]
+    fn direction_within_bound(
+        x in prop_oneof![-(1i32 << 15) + 1..1 << 15, any::<i32>()],
+        y in prop_oneof![-(1i32 << 15) + 1..1 << 15, any::<i32>()],
+    ) {
+        prop_assume!(x != 0 || y != 0);
+        let narrow = x.unsigned_abs() < 1 << 15 && y.unsigned_abs() < 1 << 15;
+        let (unit, angle) = direction_error(x, y);
+        let (ub, ab) = if narrow {
+            (UNIT_BOUND, DIRECTION_BOUND_DEG)
+        } else {
+            (UNIT_BOUND_WIDE, DIRECTION_BOUND_WIDE_DEG)
+        };
+        prop_assert!(unit <= ub, "({}, {}): unit error {:e}", x, y, unit);
+        prop_assert!(angle <= ab, "({}, {}): angle error {:e} deg", x, y, angle);
+    }
 
     /// sin and cos within 2e-5 of `f64` for any binary angle.
     #[test]
