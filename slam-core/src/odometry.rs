@@ -44,10 +44,22 @@ pub struct Motion {
 /// The turn a yaw rate makes in `dt_us` microseconds, with the gyro's scale correction,
 /// in binary angle units, unwrapped (saturating far beyond any real tick).
 pub fn turn_bits_from_gyro(gyro: GyroRate, dt_us: u32, config: &OdometryConfig) -> i64 {
-    let rate = gyro.rate_mdps as i128;
-    let rate = rate + rate * config.gyro_scale_ppm as i128 / 1_000_000;
-    // Once per tick, so 128-bit maths costs nothing that matters, and no input overflows.
-    let bits = (rate * dt_us as i128 * BAM_PER_MDPS_US_Q48 + (1 << 47)) >> 48;
+    // The scale correction: an i32 times an i32 fits 64 bits and `/` truncates as 128-bit
+    // division would. With none configured there is no division at all (a 64-bit one is
+    // hundreds of cycles on the Cortex-M0+).
+    let rate = i64::from(gyro.rate_mdps);
+    let rate = match config.gyro_scale_ppm {
+        0 => rate,
+        ppm => rate + rate * i64::from(ppm) / 1_000_000,
+    };
+    // Rate x tick fits 64 bits for any real rate (under 2^43 x 2^32 it might not: then
+    // 128 bits); only the product with the factor needs 128 bits, where no input
+    // overflows (below 2^117).
+    let swept = match rate.checked_mul(i64::from(dt_us)) {
+        Some(swept) => i128::from(swept),
+        None => i128::from(rate) * i128::from(dt_us),
+    };
+    let bits = (swept * BAM_PER_MDPS_US_Q48 + (1 << 47)) >> 48;
     bits.clamp(i64::MIN as i128, i64::MAX as i128) as i64
 }
 
@@ -95,6 +107,55 @@ pub fn apply(pose: &Pose, m: &Motion) -> Pose {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The turn as one 128-bit formula: what `turn_bits_from_gyro` must equal bit for bit.
+    fn turn_bits_reference(rate_mdps: i32, dt_us: u32, ppm: i32) -> i64 {
+        let rate = rate_mdps as i128;
+        let rate = rate + rate * ppm as i128 / 1_000_000;
+        let bits = (rate * dt_us as i128 * BAM_PER_MDPS_US_Q48 + (1 << 47)) >> 48;
+        bits.clamp(i64::MIN as i128, i64::MAX as i128) as i64
+    }
+
+    #[test]
+    fn gyro_turn_equals_the_128_bit_formula() {
+        let mut state = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (state >> 16) as u32
+        };
+        let edges = [0, 1, -1, 999_999, -1_000_000, i32::MAX, i32::MIN];
+        for _ in 0..50_000 {
+            let pick = |r: u32, wide: u32| {
+                if r.is_multiple_of(8) {
+                    edges[(r / 8) as usize % edges.len()]
+                } else {
+                    (wide as i32) >> (r % 24)
+                }
+            };
+            let rate = pick(next(), next());
+            let ppm = if next() % 3 == 0 {
+                0
+            } else {
+                pick(next(), next())
+            };
+            let dt = match next() % 4 {
+                0 => u32::MAX >> (next() % 32),
+                _ => next() % 1_000_000,
+            };
+            let config = OdometryConfig {
+                gyro_scale_ppm: ppm,
+                ..OdometryConfig::NOMINAL
+            };
+            let gyro = GyroRate { rate_mdps: rate };
+            assert_eq!(
+                turn_bits_from_gyro(gyro, dt, &config),
+                turn_bits_reference(rate, dt, ppm),
+                "{rate} mdps for {dt} us at {ppm} ppm"
+            );
+        }
+    }
 
     #[test]
     fn gyro_turns_a_quarter() {
