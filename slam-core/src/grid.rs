@@ -291,7 +291,7 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
     /// anywhere but the end (a beam's hit cell is further along the same ray, so it is on
     /// the walk only as its end cell), or evidence that adds where beams pass, is left to
     /// `mark_free`.
-    #[inline]
+    #[inline(always)]
     fn free_ray(
         &mut self,
         o: &OriginCell,
@@ -451,8 +451,13 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
         BeamOrigin { map_mm: from, cell }
     }
 
-    /// [`GridMap::insert_beam`] for a beam from `start` that stops `free` millimetres
-    /// away (`dx`, `dy`) for the free cells and `to` away where it stopped.
+    /// [`GridMap::insert_beam`] for a beam from `start`: its free cells end `free`
+    /// millimetres away (`dx`, `dy`), and it stopped `to` away.
+    ///
+    /// Never inlined, with [`GridMap::free_ray`] inlined into it: a beam's set-up then has
+    /// a frame of its own, not the caller's crowded one (inlined into the firmware's SLAM
+    /// task it went through the stack: about 90 M0+ cycles more a beam).
+    #[inline(never)]
     pub fn insert_ray(
         &mut self,
         start: &BeamOrigin,
