@@ -52,13 +52,27 @@ pub fn turn_bits_from_gyro(gyro: GyroRate, dt_us: u32, config: &OdometryConfig) 
         0 => rate,
         ppm => rate + rate * i64::from(ppm) / 1_000_000,
     };
-    // Rate x tick fits 64 bits for any real rate (under 2^43 x 2^32 it might not: then
-    // 128 bits); only the product with the factor needs 128 bits, where no input
-    // overflows (below 2^117).
-    let swept = match rate.checked_mul(i64::from(dt_us)) {
-        Some(swept) => i128::from(swept),
-        None => i128::from(rate) * i128::from(dt_us),
+    // Rate x tick: an i32 times a u32 always fits 64 bits (a scaled rate past i32 takes
+    // 128 bits, where no input overflows: below 2^117 with the factor).
+    let Ok(rate) = i32::try_from(rate) else {
+        return turn_bits_wide(i128::from(rate) * i128::from(dt_us));
     };
+    let swept = i64::from(rate) * i64::from(dt_us);
+    if swept.unsigned_abs() >= 1 << 41 {
+        return turn_bits_wide(i128::from(swept));
+    }
+    // `(swept * factor + 2^47) >> 48` in two 64-bit products: with the factor split as
+    // `high * 2^20 + low`, `floor((high * swept * 2^20 + low * swept + 2^47) / 2^48)` is
+    // `floor((high * swept + floor((low * swept + 2^47) / 2^20)) / 2^28)`. Under 2^41
+    // (2000 degrees a second for a whole second), neither product passes 2^63.
+    const HIGH: i64 = (BAM_PER_MDPS_US_Q48 >> 20) as i64;
+    const LOW: i64 = (BAM_PER_MDPS_US_Q48 & ((1 << 20) - 1)) as i64;
+    (swept * HIGH + ((swept * LOW + (1 << 47)) >> 20)) >> 28
+}
+
+/// `turn_bits_from_gyro`'s last step in 128 bits, for sweeps past 2^41.
+#[cold]
+fn turn_bits_wide(swept: i128) -> i64 {
     let bits = (swept * BAM_PER_MDPS_US_Q48 + (1 << 47)) >> 48;
     bits.clamp(i64::MIN as i128, i64::MAX as i128) as i64
 }
