@@ -2,7 +2,7 @@
 
 use crate::angle::Angle;
 use crate::frame::{FlowDelta, GyroRate};
-use crate::pose::{mul_q16, Pose};
+use crate::pose::{mul_q16, mul_q16_32, Pose};
 
 /// Binary angle units per (millidegree per second x microsecond), times 2^48.
 ///
@@ -39,6 +39,24 @@ pub struct Motion {
     pub forward_um: i64,
     /// Displacement towards the right, in micrometres.
     pub right_um: i64,
+}
+
+/// `mul_q16(counts, um_per_count_q16)`: a tick's flow counts (under 2^16) in 32 bits.
+fn counts_um(counts: i32, um_per_count_q16: i32) -> i64 {
+    if counts.unsigned_abs() <= 1 << 16 && um_per_count_q16 != i32::MIN {
+        i64::from(mul_q16_32(um_per_count_q16, counts))
+    } else {
+        mul_q16(i64::from(counts), um_per_count_q16)
+    }
+}
+
+/// `mul_q16(a, trig)` for a sine or cosine (within `+-1.0`): in 32 bits when `a` fits
+/// (the M0+ multiplies 64 bits in a library call).
+fn along(a: i64, trig: i32) -> i64 {
+    match i32::try_from(a) {
+        Ok(a) if a != i32::MIN => i64::from(mul_q16_32(a, trig)),
+        _ => mul_q16(a, trig),
+    }
 }
 
 /// The turn a yaw rate makes in `dt_us` microseconds, with the gyro's scale correction,
@@ -92,8 +110,8 @@ pub fn motion(
     let turn_bits = gyro.map_or(0, |g| turn_bits_from_gyro(g, dt_us, config));
     let (forward_um, right_um) = flow.map_or((0, 0), |f| {
         (
-            mul_q16(f.forward_counts as i64, config.flow_um_per_count_q16),
-            mul_q16(f.right_counts as i64, config.flow_um_per_count_q16),
+            counts_um(f.forward_counts, config.flow_um_per_count_q16),
+            counts_um(f.right_counts, config.flow_um_per_count_q16),
         )
     });
     Motion {
@@ -109,8 +127,8 @@ pub fn apply(pose: &Pose, m: &Motion) -> Pose {
     let mid = pose.heading + Angle::from_bits((m.turn_bits / 2) as u32);
     let (s, c) = (mid.sin(), mid.cos());
     // nose = (sin h, cos h), right = (cos h, -sin h)
-    let dx = mul_q16(m.forward_um, s) + mul_q16(m.right_um, c);
-    let dy = mul_q16(m.forward_um, c) - mul_q16(m.right_um, s);
+    let dx = along(m.forward_um, s) + along(m.right_um, c);
+    let dy = along(m.forward_um, c) - along(m.right_um, s);
     Pose {
         x_um: (pose.x_um as i64 + dx).clamp(i32::MIN as i64, i32::MAX as i64) as i32,
         y_um: (pose.y_um as i64 + dy).clamp(i32::MIN as i64, i32::MAX as i64) as i32,
@@ -128,6 +146,38 @@ mod tests {
         let rate = rate + rate * ppm as i128 / 1_000_000;
         let bits = (rate * dt_us as i128 * BAM_PER_MDPS_US_Q48 + (1 << 47)) >> 48;
         bits.clamp(i64::MIN as i128, i64::MAX as i128) as i64
+    }
+
+    #[test]
+    fn products_in_32_bits_equal_mul_q16() {
+        let mut state = 0x2545_f491_4f6c_dd1d_u64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (state >> 16) as u32
+        };
+        for _ in 0..100_000 {
+            let (a, r) = (next() as i32, next());
+            let trig = (r % (2 * 65_536 + 1)) as i32 - 65_536;
+            let a = i64::from(a >> (r % 31));
+            assert_eq!(along(a, trig), mul_q16(a, trig), "{a} x {trig}");
+            let counts = (next() as i32) >> (r % 32);
+            let factor = (next() as i32) >> (r % 24);
+            assert_eq!(
+                counts_um(counts, factor),
+                mul_q16(i64::from(counts), factor),
+                "{counts} x {factor}"
+            );
+        }
+        for (a, b) in [
+            (i64::from(i32::MIN), 65_536),
+            (1 << 40, -65_536),
+            (-1, -65_536),
+        ] {
+            assert_eq!(along(a, b), mul_q16(a, b));
+        }
+        assert_eq!(counts_um(65_536, i32::MIN), mul_q16(65_536, i32::MIN));
     }
 
     #[test]
