@@ -1101,6 +1101,16 @@ mod tests {
                     }
                 }
             }
+            // From a corner or a side at exactly 45 degrees, where two boundaries meet
+            // before the first of the other axis.
+            for d in 1..400 {
+                for (sx, sy) in [(1, 1), (1, -1), (-1, 1), (-1, -1)] {
+                    let to = (from.0 + sx * d, from.1 + sy * d);
+                    assert_beam_as_plain(from, to, to, false);
+                    let to = (from.0 + sx * d, from.1 + sy * (d + 1));
+                    assert_beam_as_plain(from, to, to, true);
+                }
+            }
         }
     }
 
