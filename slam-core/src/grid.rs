@@ -1002,13 +1002,8 @@ mod tests {
     #[test]
     fn short_walks_in_32_bits_equal_the_64_bit_walk() {
         // A fixed pseudo-random sequence (LCG) of segments up to the 32-bit limit.
-        let mut state = 0x2545_f491_4f6c_dd1d_u64;
-        let mut next = |span: i64| {
-            state = state
-                .wrapping_mul(6_364_136_223_846_793_005)
-                .wrapping_add(1_442_695_040_888_963_407);
-            ((state >> 33) as i64).rem_euclid(2 * span + 1) - span
-        };
+        let mut rng = crate::lcg::Lcg::new(0x2545_f491_4f6c_dd1d_u64);
+        let mut next = |span: i64| rng.within(span);
         let limit = SHORT_WALK_MM - 1;
         for _ in 0..20_000 {
             let cell = 1 + next(200).abs();
@@ -1064,13 +1059,8 @@ mod tests {
     fn beams_write_exactly_the_cells_their_walk_visits() {
         // The specialised loops against the plain one: every walk cell free (bar the hit
         // cell), in or partly out of the grid, from a fixed pseudo-random sequence.
-        let mut state = 0x9e37_79b9_7f4a_7c15_u64;
-        let mut next = |span: i32| {
-            state = state
-                .wrapping_mul(6_364_136_223_846_793_005)
-                .wrapping_add(1_442_695_040_888_963_407);
-            ((state >> 33) as i32).rem_euclid(2 * span + 1) - span
-        };
+        let mut rng = crate::lcg::Lcg::new(0x9e37_79b9_7f4a_7c15_u64);
+        let mut next = |span: i32| rng.within(i64::from(span)) as i32;
         for _ in 0..3_000 {
             let from = (next(1_400) + 850, next(1_400) + 850);
             let to = (from.0 + next(2_500), from.1 + next(2_500));

@@ -16,6 +16,8 @@ pub mod frame;
 pub mod framing;
 pub mod grid;
 pub mod history;
+#[cfg(test)]
+mod lcg;
 pub mod odometry;
 pub mod pose;
 pub mod slam;

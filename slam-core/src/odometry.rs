@@ -150,13 +150,8 @@ mod tests {
 
     #[test]
     fn products_in_32_bits_equal_mul_q16() {
-        let mut state = 0x2545_f491_4f6c_dd1d_u64;
-        let mut next = || {
-            state = state
-                .wrapping_mul(6_364_136_223_846_793_005)
-                .wrapping_add(1_442_695_040_888_963_407);
-            (state >> 16) as u32
-        };
+        let mut rng = crate::lcg::Lcg::new(0x2545_f491_4f6c_dd1d_u64);
+        let mut next = || (rng.next_u64() >> 16) as u32;
         for _ in 0..100_000 {
             let (a, r) = (next() as i32, next());
             let trig = (r % (2 * 65_536 + 1)) as i32 - 65_536;
@@ -182,13 +177,8 @@ mod tests {
 
     #[test]
     fn gyro_turn_equals_the_128_bit_formula() {
-        let mut state = 0x9e37_79b9_7f4a_7c15_u64;
-        let mut next = || {
-            state = state
-                .wrapping_mul(6_364_136_223_846_793_005)
-                .wrapping_add(1_442_695_040_888_963_407);
-            (state >> 16) as u32
-        };
+        let mut rng = crate::lcg::Lcg::new(0x9e37_79b9_7f4a_7c15_u64);
+        let mut next = || (rng.next_u64() >> 16) as u32;
         let edges = [0, 1, -1, 999_999, -1_000_000, i32::MAX, i32::MIN];
         for _ in 0..50_000 {
             let pick = |r: u32, wide: u32| {

@@ -309,13 +309,8 @@ mod tests {
 
     #[test]
     fn q16_products_in_32_bits_are_exact() {
-        let mut state = 0x9E37_79B9_7F4A_7C15u64;
-        let mut next = move || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            state
-        };
+        let mut rng = crate::lcg::Lcg::new(0x9E37_79B9_7F4A_7C15u64);
+        let mut next = move || rng.next_u64();
         for _ in 0..1_000_000 {
             let r = next();
             // Lengths of every width, factors across +-1.0 with its ends.
@@ -408,13 +403,8 @@ mod tests {
 
     #[test]
     fn rigid_motion_in_32_bits_matches_64() {
-        let mut state = 0x2545_F491_4F6C_DD1Du64;
-        let mut next = move || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            state
-        };
+        let mut rng = crate::lcg::Lcg::new(0x2545_F491_4F6C_DD1Du64);
+        let mut next = move || rng.next_u64();
         let pose = |r: u64, spread: u32| Pose {
             x_um: (r >> 32) as i32 >> spread,
             y_um: r as i32 >> spread,

@@ -487,13 +487,8 @@ mod tests {
 
     #[test]
     fn turns_between_baselines_match_the_angles_difference() {
-        let mut state = 0x9E37_79B9_7F4A_7C15u64;
-        let mut next = move || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            state
-        };
+        let mut rng = crate::lcg::Lcg::new(0x9E37_79B9_7F4A_7C15u64);
+        let mut next = move || rng.next_u64();
         // Every width, up to the 33 bits between two i32 tags; the bound is
         // `Direction::of_vector`'s for any components (6e-3 degrees) and two 15-bit
         // roundings (4.4e-5 rad each, 5e-3 degrees).
