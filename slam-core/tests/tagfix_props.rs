@@ -368,13 +368,8 @@ fn zero_ranges_elsewhere_are_refused() {
 /// 20,000 pseudo-random poses: report the worst errors seen against the stated bounds.
 #[test]
 fn fix_error_survey() {
-    let mut state = 0x2545_F491_4F6C_DD1Du64;
-    let mut unit = move || {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (state >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut rng = reference::Lcg(0x2545_F491_4F6C_DD1Du64);
+    let mut unit = move || (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
     let (mut wr, mut wt) = ((0.0f64, 0.0f64), (0.0f64, 0.0f64));
     let mut n = 0;
     while n < 20_000 {

@@ -7,6 +7,21 @@
 
 use std::f64::consts::PI;
 
+/// A fixed pseudo-random sequence (Knuth's MMIX linear congruential generator) for sweeps
+/// too large for proptest: the same numbers every run.
+pub struct Lcg(pub u64);
+
+impl Lcg {
+    /// The next state, all 64 bits.
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self
+            .0
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        self.0
+    }
+}
+
 // ---------------------------------------------------------------------------------------
 // Angles and the heading convention
 // ---------------------------------------------------------------------------------------
