@@ -206,8 +206,8 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
     /// Marks the cells of `walk` free but for `spared`; returns how many were inside the
     /// grid.
     ///
-    /// Any walk: beams take [`GridMap::mark_free_short`] first, which sends here only what
-    /// its loop leaves out. When both end cells are in the grid, so is every cell between
+    /// Any walk: beams take [`GridMap::free_ray`] first, which leaves here only what its
+    /// loop does not cover. When both end cells are in the grid, so is every cell between
     /// (the walk never leaves their bounding box), and the loop steps a flat index instead
     /// of checking each cell's column and row. Never inlined: inlined into the step (and
     /// the firmware's task) its state was spilled to the stack on the Cortex-M0+, at about
@@ -279,7 +279,7 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
         visited - u32::from(spared == SEEN)
     }
 
-    /// Frees a beam's walk from `start`'s cell to `end` (millimetres from the grid's
+    /// Frees a beam's walk from `o`'s cell to `end` (millimetres from the grid's
     /// corner, in the grid, less than [`SHORT_WALK_MM`] from the start along each axis),
     /// sparing `spared`; `None` when the walk needs [`GridMap::mark_free`] instead.
     ///
