@@ -454,7 +454,7 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
     /// [`GridMap::insert_beam`] for a beam from `start`: its free cells end `free`
     /// millimetres away (`dx`, `dy`), and it stopped `to` away.
     ///
-    /// Never inlined, with [`GridMap::free_ray`] inlined into it: a beam's set-up then has
+    /// Never inlined, with `free_ray` inlined into it: a beam's set-up then has
     /// a frame of its own, not the caller's crowded one (inlined into the firmware's SLAM
     /// task it went through the stack: about 90 M0+ cycles more a beam).
     #[inline(never)]
