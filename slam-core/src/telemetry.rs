@@ -811,6 +811,19 @@ impl Iterator for Frames<'_, '_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `raw` as it goes on the wire, built by hand: its CRC appended, COBS-stuffed, and
+    /// the zero delimiter.
+    fn sealed(raw: &[u8]) -> Vec<u8> {
+        let mut raw = raw.to_vec();
+        let crc = crc16(&raw);
+        raw.extend_from_slice(&crc.to_le_bytes());
+        let mut stuffed = std::vec![0u8; 32];
+        let n = cobs_encode(&raw, &mut stuffed).expect("room");
+        stuffed.truncate(n);
+        stuffed.push(0);
+        stuffed
+    }
     use crate::grid::GridGeometry;
     use crate::tagfix::FixRejection;
     use crate::SlamConfig;
@@ -915,13 +928,7 @@ mod tests {
             gyro_start_failures: 2,
             ..SensorHealth::default()
         });
-        let mut raw = std::vec![0xB3, 3, 0, 1, 0xAC, 0x02, 0, 0, 0, 0, 0, 0, 0, 0, 2];
-        let crc = crc16(&raw);
-        raw.extend_from_slice(&crc.to_le_bytes());
-        let mut stuffed = std::vec![0u8; 32];
-        let n = cobs_encode(&raw, &mut stuffed).expect("room");
-        stuffed.truncate(n);
-        stuffed.push(0);
+        let stuffed = sealed(&[0xB3, 3, 0, 1, 0xAC, 0x02, 0, 0, 0, 0, 0, 0, 0, 0, 2]);
         assert_eq!(frame(&h), stuffed);
         // No zero before the delimiter.
         assert!(!stuffed[..stuffed.len() - 1].contains(&0));
@@ -1092,14 +1099,10 @@ mod tests {
             std::vec![0xB1, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0],
             std::vec![0xB2, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0],
         ] {
-            let mut raw = old;
-            let crc = crc16(&raw);
-            raw.extend_from_slice(&crc.to_le_bytes());
-            let mut enc = std::vec![0u8; 32];
-            let n = cobs_encode(&raw, &mut enc).expect("room");
-            enc.truncate(n);
-            enc.push(0);
-            assert_eq!(decode_all(&enc).0, std::vec![Err(FrameError::Version)]);
+            assert_eq!(
+                decode_all(&sealed(&old)).0,
+                std::vec![Err(FrameError::Version)]
+            );
         }
 
         for raw in [
@@ -1108,14 +1111,10 @@ mod tests {
             std::vec![0xB3, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 7], // a byte left over
             std::vec![0xB3, 2, 0, 0, 0x81, 0x01],                      // 129 cells announced
         ] {
-            let mut raw = raw;
-            let crc = crc16(&raw);
-            raw.extend_from_slice(&crc.to_le_bytes());
-            let mut enc = std::vec![0u8; 32];
-            let n = cobs_encode(&raw, &mut enc).expect("room");
-            enc.truncate(n);
-            enc.push(0);
-            assert_eq!(decode_all(&enc).0, std::vec![Err(FrameError::Body)]);
+            assert_eq!(
+                decode_all(&sealed(&raw)).0,
+                std::vec![Err(FrameError::Body)]
+            );
         }
     }
 
