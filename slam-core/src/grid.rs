@@ -609,6 +609,7 @@ impl CellDivider {
     /// `floor(a / cell)` for `0 <= a < LIMIT` by the multiply; `None` otherwise.
     #[inline]
     fn fast_floor(&self, a: i32) -> Option<i32> {
+        // One unsigned comparison takes in `0 <= a < LIMIT`.
         ((a as u32) < Self::LIMIT as u32 && self.multiplier != 0)
             .then(|| ((a as u32 * self.multiplier) >> self.shift) as i32)
     }
@@ -616,12 +617,8 @@ impl CellDivider {
     /// `floor(a / cell)` in 32 bits.
     #[inline]
     fn floor_i32(&self, a: i32) -> i32 {
-        // One unsigned comparison takes in `0 <= a < LIMIT`.
-        if (a as u32) < Self::LIMIT as u32 && self.multiplier != 0 {
-            ((a as u32 * self.multiplier) >> self.shift) as i32
-        } else {
-            self.floor(i64::from(a)) as i32
-        }
+        self.fast_floor(a)
+            .unwrap_or_else(|| self.floor(i64::from(a)) as i32)
     }
 
     /// The cell holding map point `p`, as [`GridGeometry::cell_of`].
