@@ -465,7 +465,10 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
         to: (i32, i32),
         hit: bool,
     ) -> u32 {
-        let short = |d: (i32, i32)| d.0.unsigned_abs() < 1 << 14 && d.1.unsigned_abs() < 1 << 14;
+        let short = |d: (i32, i32)| {
+            let limit = SHORT_WALK_MM as u32;
+            d.0.unsigned_abs() < limit && d.1.unsigned_abs() < limit
+        };
         let Some(o) = start.cell.as_ref().filter(|_| short(free) && short(to)) else {
             return self.insert_beam_any_along(start.map_mm, free, to, hit);
         };
