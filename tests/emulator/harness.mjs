@@ -9,8 +9,9 @@
 // - runs both cores (core 1 is added by core1.mjs: rp2040js has one) under a
 //   `SimulationClock`: the core that is behind executes its next instruction and the clock
 //   follows the slower awake core; with both asleep (WFE/WFI) it jumps to the next alarm;
-// - drains the defmt RTT up-channel from SRAM at the `_SEGGER_RTT` symbol into a file,
-//   and captures UART1 TX (telemetry) into another; `host-sim view` decodes the latter;
+// - drains the defmt RTT up-channel from SRAM at the `_SEGGER_RTT` symbol into a file
+//   (`cargo xtask emulate` decodes it against the ELF), and captures UART1 TX (telemetry)
+//   into another (`host-sim view` decodes it);
 // - models the devices: PMW3901 flow (SPI0, CS GP17), ICM-42688-P gyro (I2C1 @ 0x68),
 //   the VL53L5CX (I2C0 @ 0x29, vl53l5cx.mjs: answers ST's ULD, firmware upload and all), the
 //   camera co-processor's frames on UART0 RX (every 100 ms), and reads the motor PWM
@@ -66,7 +67,6 @@ function parseArgs(argv) {
     json: false,
     quiet: false,
     selfTest: false,
-    defmtPrint: null,
   };
   for (let i = 0; i < argv.length; i++) {
     const k = argv[i];
@@ -85,7 +85,6 @@ function parseArgs(argv) {
       case '--telemetry': a.telemetry = v(); break;
       case '--defmt': a.defmt = v(); break;
       case '--truth': a.truth = v(); break;
-      case '--defmt-print': a.defmtPrint = v(); break;
       case '--fault': a.faults.push(parseFault(v())); break;
       case '--max-wall': a.maxWall = Number(v()); break;
       case '--json': a.json = true; break;
@@ -710,14 +709,6 @@ function main() {
   if (args.truth) fs.writeFileSync(args.truth, truthLines.map((l) => `${l}\n`).join(''));
   const defmtFile = args.defmt || (args.telemetry ? args.telemetry.replace(/(\.bin)?$/, '.defmt') : null);
   if (defmtFile) fs.writeFileSync(defmtFile, Buffer.from(rttBytes));
-  const logs = decodeDefmt(args, defmtFile);
-
-  // Ticks and overruns: the firmware's own LoopCounters, from its once-a-second log.
-  let fwTicks = null, fwOverruns = null, fwMaxStepUs = null, fwMaxLateUs = null;
-  for (const l of logs.lines) {
-    const m = /ticks: (\d+), overruns: (\d+), max_late_us: (\d+), max_step_us: (\d+)/.exec(l);
-    if (m) { fwTicks = +m[1]; fwOverruns = +m[2]; fwMaxLateUs = +m[3]; fwMaxStepUs = +m[4]; }
-  }
 
   const STEP_BUDGET_CYCLES = 20000;
   const sorted = [...stepCycles].sort((x, y) => x - y);
@@ -732,10 +723,6 @@ function main() {
     cpu_load_pct: round((100 * core.cycles) / (simS * NOMINAL_CLK_HZ), 2),
     clk_sys_hz: rp.clkSys,
     ticks_seen: stepCycles.length,
-    fw_ticks: fwTicks,
-    overruns: fwOverruns,
-    fw_max_step_us: fwMaxStepUs,
-    fw_max_late_us: fwMaxLateUs,
     step_measure: step.method === 'none' ? step.reason : `${step.method}: ${step.symbol}`,
     step_cycles_min: sorted.length ? sorted[0] : null,
     step_cycles_median: pick(0.5),
@@ -746,8 +733,6 @@ function main() {
     step_us_max_at_125mhz: sorted.length ? round(sorted[sorted.length - 1] / 125, 1) : null,
     step_isr_cycles_excluded_max: stepIsrCycles.length ? Math.max(...stepIsrCycles) : 0,
     defmt_bytes: rttBytes.length,
-    defmt_lines: logs.lines.length,
-    defmt_decoder: logs.decoder,
     telemetry_bytes: telemetry.length,
     world: args.noWorld ? 'still (no host-sim)' : 'host-sim serve',
     world_requests: world.requests,
@@ -768,7 +753,6 @@ function main() {
       fault: `${f.kind}@T+${f.at_s}${Number.isFinite(f.until_s) ? `/${f.until_s - f.at_s}` : ''}`,
       events: f.events,
     })),
-    last_logs: logs.lines.slice(-8),
     emulator_messages: [...emuMessages].slice(0, 20).map(([k, n]) => `${n}x ${k}`),
   };
   if (stepProfile) result.step_profile_worst = stepProfile.worst(process.env.BUGBOT_EMU_STEP_PROFILE === 'pc' ? 4000 : 15);
@@ -779,7 +763,6 @@ function main() {
   if (args.json) {
     console.log(JSON.stringify(result));
   } else {
-    for (const l of logs.lines) console.log(l);
     console.log(JSON.stringify(result, null, 2));
   }
 }
@@ -835,25 +818,6 @@ function functionProfiler(elf) {
 function round(x, n) {
   const f = 10 ** n;
   return Math.round(x * f) / f;
-}
-
-/// Decodes the raw defmt bytes with `defmt-print` if it is installed (the host decoder
-/// from knurling; the harness does not reimplement defmt).
-function decodeDefmt(args, file) {
-  if (!file) return { lines: [], decoder: 'none (no --defmt file)' };
-  const candidates = [args.defmtPrint, 'defmt-print', path.join(os.homedir(), '.cargo/bin/defmt-print')].filter(Boolean);
-  for (const tool of candidates) {
-    const r = spawnSync(tool, ['-e', args.elf, '--log-format', '{L} {s}', 'file', file], { encoding: 'utf8' });
-    if (r.error || r.status === null) continue;
-    if (r.status !== 0 && !r.stdout) {
-      // Older defmt-print: no `file` subcommand, read stdin.
-      const r2 = spawnSync(tool, ['-e', args.elf], { input: fs.readFileSync(file), encoding: 'utf8' });
-      if (r2.status === 0 || r2.stdout) return { lines: r2.stdout.split('\n').filter(Boolean), decoder: tool };
-      continue;
-    }
-    return { lines: r.stdout.split('\n').filter(Boolean), decoder: tool };
-  }
-  return { lines: [], decoder: 'none: install with `cargo install defmt-print`' };
 }
 
 // ---------------------------------------------------------------------------------------
