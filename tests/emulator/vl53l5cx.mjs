@@ -38,7 +38,7 @@
 // boot times are assumed, and the meaning of status bytes the ULD only compares is
 // inferred from those comparisons.
 //
-// Usage (see tests/emulator/harness.mjs for the bus it plugs into):
+// Usage (tests/emulator/devices/i2c-bus.mjs is the bus it plugs into):
 //   const m = new Vl53l5cxModel({ readBeams, nowNs });
 //   m.connect('write' | 'read'); m.write(byte); m.read(); m.stop();   // bus events
 //   m.powerDown(); m.powerUp();                                         // LPn low / high

@@ -1,0 +1,126 @@
+// Where rp2040js 1.4.1 differs from the RP2040 in ways the firmware runs into, patched to
+// behave as the chip does. Each patch says what the real part does.
+
+/// UART (PL011): gives UARTDMACR storage, raises the RX DMA request, and models the TX
+/// FIFO so the TX interrupt fires on a transition as on the chip. `onByteOut(byte)` is
+/// called as each byte leaves the shifter, one frame time after the last.
+export function patchUart(rp, uart, later, onByteOut) {
+  const UARTDR = 0x0, UARTFR = 0x18, UARTIFLS = 0x34, UARTDMACR = 0x48;
+  const TXINTR = 1 << 5;
+  const RXDMAE = 1 << 0;
+  const TXDMAE = 1 << 1;
+  let dmacr = 0;
+  let ifls = 0x12;
+  const txFifo = [];
+  let shifting = false;
+  const fifoDepth = () => (uart.fifosEnabled ? 32 : 1);
+  // TXIFLSEL: 0 = 1/8, 1 = 1/4, 2 = 1/2, 3 = 3/4, 4 = 7/8 of 32 entries.
+  const txLevel = () => [4, 8, 16, 24, 28][ifls & 7] ?? 16;
+
+  // rp2040js sets the TX interrupt on every check, so a TX-masked BufferedUart ISR never
+  // stops. The PL011 raises TXRIS only when the TX FIFO level falls through the trigger
+  // level (or, FIFOs off, when the holding register empties), and clears it on a write
+  // that lifts the level back above it, or through UARTICR.
+  uart.checkInterrupts = function () {
+    rp.setInterrupt(this.irq, !!(this.interruptStatus & this.interruptMask));
+    // The PL011 requests RX DMA while its RX FIFO holds data and UARTDMACR.RXDMAE is set;
+    // rp2040js never raises it, so async DMA reads of late bytes time out.
+    if (dmacr & RXDMAE && !this.rxFIFO.empty) rp.dma.setDREQ(this.dreq.rx);
+    else rp.dma.clearDREQ(this.dreq.rx);
+    // rp2040js holds the TX DMA request high whenever the UART is enabled, so a DMA write
+    // (the firmware's telemetry UartTx) floods a full FIFO and bytes are lost. The PL011
+    // requests TX DMA only with UARTDMACR.TXDMAE set and room in the TX FIFO.
+    if (dmacr & TXDMAE && this.enabled && txFifo.length < fifoDepth()) rp.dma.setDREQ(this.dreq.tx);
+    else rp.dma.clearDREQ(this.dreq.tx);
+  };
+
+  const shiftNext = () => {
+    if (!txFifo.length) { shifting = false; return; }
+    shifting = true;
+    const bits = (uart.wordLength || 8) + 2;
+    later((bits * 1e9) / (uart.baudRate || 115200), () => {
+      const level = txFifo.length;
+      onByteOut(txFifo.shift());
+      uart.checkInterrupts(); // room again: the TX DMA request may rise
+      const lvl = fifoDepth() === 1 ? 0 : txLevel();
+      if ((level > lvl && txFifo.length <= lvl) || txFifo.length === 0) {
+        uart.interruptStatus |= TXINTR;
+        uart.checkInterrupts();
+      }
+      shiftNext();
+    });
+  };
+
+  const origRead = uart.readUint32.bind(uart);
+  const origWrite = uart.writeUint32.bind(uart);
+  uart.readUint32 = (offset) => {
+    switch (offset) {
+      // rp2040js reports TX FIFO always empty: the PL011 has TXFF (bit 5), TXFE (bit 7)
+      // and BUSY (bit 3) from the real FIFO and shifter.
+      case UARTFR: {
+        const base = origRead(offset) & ~((1 << 7) | (1 << 5) | (1 << 3));
+        return base | (txFifo.length >= fifoDepth() ? 1 << 5 : 0) | (txFifo.length === 0 ? 1 << 7 : 0) |
+          (shifting ? 1 << 3 : 0);
+      }
+      case UARTIFLS: return ifls;
+      // Unimplemented in rp2040js (reads 0xFFFFFFFF, so BufferedUart's ISR believes RX
+      // DMA is on and returns at once, forever). The PL011 stores TXDMAE/RXDMAE/DMAONERR.
+      case UARTDMACR: return dmacr;
+      default: return origRead(offset);
+    }
+  };
+  uart.writeUint32 = (offset, value) => {
+    switch (offset) {
+      case UARTDR:
+        if (!uart.enabled || !uart.txEnabled) return;
+        if (txFifo.length < fifoDepth()) txFifo.push(value & 0xff);
+        else uart.txOverflows = (uart.txOverflows || 0) + 1; // the PL011 drops it too
+        uart.checkInterrupts();
+        if (txFifo.length > (fifoDepth() === 1 ? 0 : txLevel())) {
+          uart.interruptStatus &= ~TXINTR;
+          uart.checkInterrupts();
+        }
+        if (!shifting) shiftNext();
+        return;
+      case UARTIFLS: ifls = value & 0x3f; return;
+      case UARTDMACR: dmacr = value & 0x7; uart.checkInterrupts(); return;
+      // rp2040js's UARTIMSC/UARTICR paths call checkInterrupts, now the override above.
+      default: origWrite(offset, value); uart.checkInterrupts();
+    }
+  };
+}
+
+/// I2C (DW_apb_i2c): rp2040js ignores writes to IC_INTR_MASK (0x30), so the I2C interrupt
+/// never fires and async transfers hang. The DW_apb_i2c stores the mask (13 bits) and
+/// drives the interrupt line with RAW_INTR_STAT & INTR_MASK.
+///
+/// After a transmit abort (a NACK) the DW_apb_i2c flushes its TX FIFO, which leaves it
+/// empty, so TX_EMPTY (RAW_INTR_STAT bit 4) is raised at once; rp2040js flushes the FIFO
+/// but never raises the flag, and embassy-rp's blocking write, which waits for TX_EMPTY
+/// before it looks for the abort, then spins for ever on the first NACK.
+export function patchI2c(i2c) {
+  const TX_EMPTY = 1 << 4;
+  const origAbort = i2c.abort.bind(i2c);
+  i2c.abort = (reason) => {
+    origAbort(reason);
+    i2c.setInterrupts(TX_EMPTY);
+  };
+  const IC_INTR_MASK = 0x30;
+  const origWrite = i2c.writeUint32.bind(i2c);
+  i2c.writeUint32 = (offset, value) => {
+    if (offset === IC_INTR_MASK) {
+      i2c.intEnable = value & 0x1fff;
+      i2c.checkInterrupts();
+      return;
+    }
+    origWrite(offset, value);
+  };
+}
+
+/// SPI (PL022): rp2040js's `spiMode` getter swaps modes 2 and 3. The real SSP: CPOL =
+/// SSPCR0.SPO (bit 6), CPHA = SSPCR0.SPH (bit 7), mode = CPOL * 2 + CPHA.
+export function patchSpiMode(spi) {
+  Object.defineProperty(spi, 'spiMode', {
+    get() { return ((this.control0 >> 6) & 1) * 2 + ((this.control0 >> 7) & 1); },
+  });
+}

@@ -1,0 +1,71 @@
+// Both cores side by side under one simulation clock. Each core has its own time, and the
+// core that is behind runs its next instruction; the clock (timers, device models)
+// follows the slower of the cores that are awake. A core asleep (WFE/WFI) follows the
+// clock, and with both asleep the clock jumps to the next alarm.
+
+/// Runs `chip` (from `bootChip`) until `endNs` of simulated time, a HardFault or
+/// breakpoint, both cores asleep with nothing pending, or `maxWallS` seconds of wall time
+/// (0: no limit). `meter` measures the step on core 0, `rtt` is drained as the run goes,
+/// `pcSamples` (or null) samples core 0's PC. Returns `{ stopReason, instructions,
+/// core1Instructions, wallS }`.
+export function runBothCores({ chip, endNs, meter, rtt, pcSamples, hardFaultPc, maxWallS }) {
+  const { clock, rp, core, core1 } = chip;
+  let stopReason = null;
+  rp.onBreak = (code) => { stopReason = `breakpoint/udf ${code} at PC 0x${core.PC.toString(16)}`; };
+  let asleepWithNothing = false;
+  const wallStart = process.hrtime.bigint();
+  let instr = 0;
+  let cycleNs = 1e9 / rp.clkSys;
+  const c1 = core1.core;
+  let instr1 = 0;
+  let t0 = 0, t1 = 0;
+  const c1Awake = () => core1.launched && !c1.waiting;
+  while (clock.nanos < endNs && !stopReason) {
+    if (core.waiting) {
+      meter.close();
+      if (!c1Awake()) {
+        rtt.drain();
+        const next = clock.nanosToNextAlarm;
+        if (!clock.nextAlarm) { asleepWithNothing = true; break; }
+        clock.tick(Math.min(Math.max(next, 0), endNs - clock.nanos));
+        continue;
+      }
+    }
+    if (c1Awake() && (core.waiting || t1 < t0)) {
+      if (t1 < clock.nanos) t1 = clock.nanos;
+      if (c1.PC === hardFaultPc) { stopReason = 'HardFault on core 1'; break; }
+      t1 += c1.executeInstruction() * cycleNs;
+      if ((++instr1 & 0xffff) === 0) rtt.drain();
+      const until = core.waiting ? t1 : Math.min(t0, t1);
+      if (until > clock.nanos) clock.tick(until - clock.nanos);
+      continue;
+    }
+    if (t0 < clock.nanos) t0 = clock.nanos;
+    const pc = core.PC;
+    const inside = meter.before(pc, core);
+    if (pc === hardFaultPc) { stopReason = 'HardFault'; break; }
+    if (pcSamples) pcSamples.sample(instr, pc);
+    const before = core.cycles;
+    const c = core.executeInstruction();
+    if (meter.open) meter.after(pc, core, before, inside);
+    t0 += c * cycleNs;
+    const until = c1Awake() ? Math.min(t0, t1) : t0;
+    if (until > clock.nanos) clock.tick(until - clock.nanos);
+    if ((++instr & 0xffff) === 0) {
+      rtt.drain();
+      cycleNs = 1e9 / rp.clkSys;
+      if (maxWallS && (instr & 0xfffff) === 0) {
+        const wall = Number(process.hrtime.bigint() - wallStart) / 1e9;
+        if (wall > maxWallS) { stopReason = `wall-clock limit ${maxWallS} s`; break; }
+      }
+    }
+  }
+  meter.close();
+  rtt.drain();
+  return {
+    stopReason: stopReason || (asleepWithNothing ? 'core asleep with no alarm pending' : 'time'),
+    instructions: instr,
+    core1Instructions: instr1,
+    wallS: Number(process.hrtime.bigint() - wallStart) / 1e9,
+  };
+}

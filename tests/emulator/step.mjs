@@ -1,0 +1,161 @@
+// Cycles per SLAM step: `core.cycles` across `Slam::step` on core 0, whether the step is
+// its own function or inlined into the SLAM task.
+
+import { spawnSync, execFileSync } from 'node:child_process';
+import { round } from './result.mjs';
+
+/// Cycles a step may take for the map and pose update.
+const STEP_BUDGET_CYCLES = 20000;
+/// Cycles per microsecond at the nominal 125 MHz.
+const CYCLES_PER_US = 125;
+
+/// Where to measure Slam::step. A real function symbol if the step was not inlined
+/// (entry to return); otherwise the inlined copy's address ranges from DWARF (first to
+/// last instruction inside them per tick). Needs `llvm-dwarfdump` for the second case.
+export function findStep(elfPath, elf) {
+  const fn = elf.symbols.find(
+    (s) => s.type === 2 && /slam_core.*Slam.*4step17h/.test(s.name) && s.size > 0,
+  );
+  if (fn) {
+    return { method: 'function', symbol: fn.name, entry: fn.value & ~1, ranges: null };
+  }
+  const tool = ['llvm-dwarfdump', 'llvm-dwarfdump-22', 'llvm-dwarfdump-14'].find(
+    (t) => spawnSync(t, ['--version'], { stdio: 'ignore' }).status === 0,
+  );
+  if (!tool) return { method: 'none', reason: 'Slam::step is inlined and llvm-dwarfdump is missing' };
+  const out = execFileSync(tool, ['--debug-info', elfPath], { maxBuffer: 1 << 30 }).toString();
+  const lines = out.split('\n');
+  for (let i = 0; i < lines.length; i++) {
+    if (!/DW_TAG_inlined_subroutine/.test(lines[i])) continue;
+    const origin = lines[i + 1] || '';
+    if (!/DW_AT_abstract_origin.*slam_core4slam.*Slam\$LT\$.*\$GT\$4step17h/.test(origin)) continue;
+    const ranges = [];
+    let callLine = null;
+    for (let j = i + 2; j < Math.min(lines.length, i + 80); j++) {
+      const l = lines[j];
+      let m;
+      if ((m = /\[0x([0-9a-f]+), 0x([0-9a-f]+)\)/.exec(l))) ranges.push([parseInt(m[1], 16), parseInt(m[2], 16)]);
+      else if ((m = /DW_AT_low_pc\s*\(0x([0-9a-f]+)\)/.exec(l))) ranges.push([parseInt(m[1], 16), null]);
+      else if ((m = /DW_AT_high_pc\s*\(0x([0-9a-f]+)\)/.exec(l)) && ranges.length) ranges[ranges.length - 1][1] = parseInt(m[1], 16);
+      if ((m = /DW_AT_call_line\s*\((\d+)\)/.exec(l))) callLine = Number(m[1]);
+      if (/DW_AT_call_column/.test(l) || /^0x[0-9a-f]+:/.test(l.trim())) break;
+    }
+    const good = ranges.filter((r) => r[1] !== null);
+    if (good.length) {
+      return {
+        method: 'inlined-ranges',
+        symbol: 'slam_core::slam::Slam::step (inlined into slam_task, call line ' + callLine + ')',
+        ranges: good,
+        lo: Math.min(...good.map((r) => r[0])),
+        hi: Math.max(...good.map((r) => r[1])),
+      };
+    }
+  }
+  return { method: 'none', reason: 'no Slam::step symbol and no inlined copy in DWARF' };
+}
+
+/// Measures each step as a window of core 0's cycles: opened at the step's first
+/// instruction, closed at the function's return (a real function) or when core 0 next
+/// sleeps (inlined: the window ends at the last instruction seen inside the step's
+/// ranges). Cycles spent in interrupt handlers inside the window are not the step's.
+export class StepMeter {
+  /// `step`: what `findStep` found. `onStart()`: called as each step begins, before its
+  /// first instruction runs. `profile`: a `functionProfiler`, or null.
+  constructor(step, { onStart, profile }) {
+    this.step = step;
+    this.isFunction = step.method === 'function';
+    this.ranges = step.ranges || [];
+    // The address span to test first: the function's entry, the inlined ranges' hull, or
+    // an empty span when there is nothing to measure.
+    this.lo = step.method === 'inlined-ranges' ? step.lo : this.isFunction ? step.entry : 1;
+    this.hi = step.method === 'inlined-ranges' ? step.hi : this.isFunction ? step.entry + 2 : 0;
+    this.onStart = onStart;
+    this.profile = profile;
+    this.open = false;
+    this.start = 0;
+    this.end = 0;
+    this.isr = 0;
+    this.isrAtEnd = 0;
+    this.fnReturn = -1;
+    this.fnSp = 0;
+    /// Each step's cycles, and the interrupt cycles left out of each.
+    this.cycles = [];
+    this.isrCycles = [];
+  }
+
+  inRanges(pc) {
+    const ranges = this.ranges;
+    for (let i = 0; i < ranges.length; i++) if (pc >= ranges[i][0] && pc < ranges[i][1]) return true;
+    return false;
+  }
+
+  openWindow(core) {
+    this.open = true;
+    this.start = core.cycles;
+    this.isr = 0;
+    this.onStart();
+  }
+
+  /// Before core 0 executes the instruction at `pc`. Returns whether `pc` is inside an
+  /// inlined step's ranges (pass it on to `after`).
+  before(pc, core) {
+    if (pc < this.lo || pc >= this.hi) return false;
+    if (this.isFunction) {
+      if (this.fnReturn < 0) {
+        this.fnReturn = core.LR & ~1;
+        this.fnSp = core.SP;
+        this.openWindow(core);
+      }
+      return false;
+    }
+    if (!this.inRanges(pc)) return false;
+    if (!this.open) this.openWindow(core);
+    return true;
+  }
+
+  /// After core 0 executed the instruction at `pc`, which started at `cyclesBefore`;
+  /// only while the window is open.
+  after(pc, core, cyclesBefore, inside) {
+    if (core.IPSR !== 0) this.isr += core.cycles - cyclesBefore;
+    else if (this.profile) this.profile.add(pc, core.cycles - cyclesBefore);
+    if (inside) {
+      this.end = core.cycles;
+      this.isrAtEnd = this.isr;
+      if (this.profile) this.profile.mark();
+    }
+    if (this.fnReturn >= 0 && core.PC === this.fnReturn && core.SP >= this.fnSp && core.IPSR === 0) {
+      this.end = core.cycles;
+      this.isrAtEnd = this.isr;
+      this.fnReturn = -1;
+      this.close();
+    }
+  }
+
+  /// Ends the step in progress, if any.
+  close() {
+    if (!this.open) return;
+    this.open = false;
+    this.cycles.push(this.end - this.start - this.isrAtEnd);
+    if (this.profile) this.profile.commit();
+    this.isrCycles.push(this.isrAtEnd);
+  }
+
+  /// The result's step figures, in its key order.
+  summary() {
+    const step = this.step;
+    const sorted = [...this.cycles].sort((x, y) => x - y);
+    const pick = (q) => (sorted.length ? sorted[Math.min(sorted.length - 1, Math.floor(q * sorted.length))] : null);
+    const max = sorted.length ? sorted[sorted.length - 1] : null;
+    return {
+      ticks_seen: this.cycles.length,
+      step_measure: step.method === 'none' ? step.reason : `${step.method}: ${step.symbol}`,
+      step_cycles_min: sorted.length ? sorted[0] : null,
+      step_cycles_median: pick(0.5),
+      step_cycles_p99: pick(0.99),
+      step_cycles_max: max,
+      step_cycles_over_budget: sorted.filter((c) => c > STEP_BUDGET_CYCLES).length,
+      step_us_max_at_125mhz: sorted.length ? round(max / CYCLES_PER_US, 1) : null,
+      step_isr_cycles_excluded_max: this.isrCycles.length ? Math.max(...this.isrCycles) : 0,
+    };
+  }
+}
