@@ -1,5 +1,6 @@
-//! The loop every sensor task runs: start the part, backing off while it fails; read it at
-//! its rate until it is lost; start it again.
+//! The loop the flow, IMU and depth tasks run: start the part, backing off while it fails;
+//! read it at its rate until it is lost; start it again. (The camera only listens: its
+//! link has no start-up to retry.)
 //!
 //! A part that stops answering (unplugged, browned out, a bus stuck by a glitch) comes back
 //! by itself, and how often that happens shows in [`HEALTH`](crate::health::HEALTH): each
