@@ -35,6 +35,8 @@ pub enum Pace {
     Every(Duration),
     /// A pause of this long before each read ([`Timer::after`]). For polling a part that
     /// says when it has data, where a blocking read may overrun the period.
+    // Only the depth sensor polls, and it is built only with its feature.
+    #[cfg_attr(not(feature = "vl53l5cx"), allow(dead_code))]
     After(Duration),
 }
 
@@ -51,6 +53,7 @@ pub enum Read {
     /// The part answered: the run of failures ends, whatever the data said.
     Answered,
     /// The part has nothing yet (no frame ready): neither an answer nor a failure.
+    #[cfg_attr(not(feature = "vl53l5cx"), allow(dead_code))]
     NotReady,
     /// A bus error or a timeout: counted in [`Supervisor::bus_errors`], one more failure in a
     /// row.
