@@ -1,4 +1,5 @@
-//! BugBot's part drivers: `no_std`, async over `embedded-hal-async` 1.0.
+//! BugBot's part drivers: `no_std`, over the `embedded-hal` 1.0 traits (the async ones,
+//! `embedded-hal-async`, for the buses).
 //!
 //! One module per part. Each bus driver is generic over its bus trait, owns
 //! the bus until [`destroy`](flow::Pmw3901::destroy) hands it back, and
@@ -12,8 +13,12 @@
 //! | [`flow`] | PixArt PMW3901 optical flow | SPI mode 3, `SpiDevice` |
 //! | [`imu`] | TDK InvenSense ICM-42688-P gyro | I2C, `I2c` |
 //! | [`camera_link`] | OpenMV tag camera frames | UART bytes (COBS) |
-//! | [`depth`] | ST VL53L5CX 8x8 zone reduction | pure function (bus layer later) |
+//! | [`depth`] | ST VL53L5CX 8x8 zone reduction | none: a pure function of a frame |
 //! | [`motors`] | DRV8833 dual H-bridge | 4 PWM channels, `SetDutyCycle` |
+//!
+//! The VL53L5CX's bus side is not here: ST's Ultra Lite Driver (C, blocking, through the
+//! `vl53l5cx-uld` crate) talks to it in the firmware, and [`depth`] reduces the frames it
+//! reads.
 //!
 //! Robot-frame conventions shared by all modules: `forward` is the robot's
 //! nose, `right` its right-hand side; headings and yaw rates are positive

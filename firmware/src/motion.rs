@@ -158,8 +158,8 @@ pub async fn motion_task(
     inputs.gyro_ready.wait().await;
     // Then one SLAM tick with the gyro live: the tick in which calibration ended saw
     // samples for only part of its interval, and the core takes their mean rate over the
-    // whole of it. Moving then would count the turn's start twice (1.6 degrees at the
-    // route's turn rate, measured in the emulator); standing still one more tick costs 0.1 s.
+    // whole of it. Moving then would count the turn's start twice (up to a tick's worth of
+    // the turn); standing still one more tick costs 0.1 s.
     while reports.changed().await.stale.gyro {}
 
     let mut pilot = Pilot {

@@ -1,7 +1,7 @@
 //! USB telemetry: the same COBS frames as UART1, on a USB CDC ACM serial port, so a PC
 //! the robot is plugged into sees `/dev/ttyACM0` (a COM port on Windows) carrying the
 //! stream that `host-sim view /dev/ttyACM0 --out DIR` decodes. The baud rate the host
-//! sets is ignored: USB full speed moves the stream's ~7 KB/s whatever it says.
+//! sets is ignored: USB full speed moves the stream (at most about 7 KB/s) whatever it says.
 //!
 //! Three parts: [`build`] sets the device up (descriptors, the CDC ACM class), the
 //! [`usb_device_task`] answers the host (enumeration, control requests) for good, and the
@@ -9,8 +9,9 @@
 //!
 //! # Never in the way
 //!
-//! USB is the optional path: UART1 stays the primary link (the emulator harness and the
-//! radio read it) and the SLAM loop must not notice whether a PC is there. So nothing
+//! USB is the optional path: UART1 stays the primary link (the emulator harness reads it,
+//! as does whatever serial link is wired to GP8) and the SLAM loop must not notice whether
+//! a PC is there. So nothing
 //! waits on USB except [`usb_telemetry_task`]:
 //!
 //! - [`offer`] never waits. With no host (not plugged in, not configured, bus suspended)

@@ -6,7 +6,8 @@
 //! has among the lowest gyro noise of consumer IMUs (2.8 mdps/sqrt(Hz)) with
 //! low bias drift over temperature, which is what dead reckoning on yaw
 //! needs. The part of its register map used here sits in one bank, and it
-//! speaks I2C at up to 1 MHz, so it shares BugBot's I2C bus. The MPU-6050
+//! speaks I2C at up to 1 MHz; BugBot gives it a bus of its own (I2C1 at
+//! 400 kHz, see the firmware's `board.rs`). The MPU-6050
 //! family is obsolete; the LSM6DSO would also do (3.8 mdps/sqrt(Hz)) and
 //! is the fallback if the ICM-42688-P is out of stock, with a new register
 //! module.

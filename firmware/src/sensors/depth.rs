@@ -61,6 +61,7 @@ mod ranging {
 
     use super::{bus_config, DepthInbox, DepthReading, DepthSensorPins};
     use crate::health::HEALTH;
+    use crate::sensors::supervise::{Pace, Read, StartFailure, Supervised, Supervisor};
 
     /// The ULD's calls back into Rust for I2C and delays, for exactly these bus and delay
     /// types. The one place this crate allows `unsafe`: the macro defines the
@@ -78,11 +79,11 @@ mod ranging {
     /// frame (the newest wins).
     pub const RANGING_HZ: u8 = 15;
 
-    /// How often core 1 asks the sensor whether a frame is ready (one 4-byte read).
-    const POLL_PERIOD: Duration = Duration::from_millis(5);
-
     /// No frame for this long, once ranging has started, is a timeout (four frame periods).
     const FRAME_TIMEOUT: Duration = Duration::from_millis(270);
+
+    /// How often core 1 asks the sensor whether a frame is ready (one 4-byte read).
+    const POLL_PERIOD: Duration = Duration::from_millis(5);
 
     /// First wait after a failed start-up; doubled after each failure up to
     /// [`MAX_BACKOFF`].
@@ -93,6 +94,17 @@ mod ranging {
 
     /// Read errors in a row after which the sensor is power-cycled and started again.
     const ERRORS_BEFORE_RESTART: u32 = 10;
+
+    /// Core 1's start-up and polling: a pause of [`POLL_PERIOD`] before each poll, as a
+    /// blocking frame read-out may take longer than a period.
+    static SUPERVISOR: Supervisor = Supervisor {
+        first_backoff: FIRST_BACKOFF,
+        max_backoff: MAX_BACKOFF,
+        pace: Pace::After(POLL_PERIOD),
+        errors_before_restart: ERRORS_BEFORE_RESTART,
+        start_failures: &HEALTH.depth_init_failures,
+        bus_errors: &HEALTH.depth_bus_errors,
+    };
 
     /// LPn low this long resets the sensor's I2C interface and firmware state.
     const LPN_OFF: Duration = Duration::from_millis(10);
@@ -130,30 +142,7 @@ mod ranging {
     #[embassy_executor::task]
     async fn ranging_task(i2c: I2c<'static, I2C0, Blocking>, lpn: Output<'static>) -> ! {
         let mut sensor: Sensor = Vl53l5cx::new(i2c, Delay).with_lpn_pin(lpn);
-        loop {
-            start(&mut sensor).await;
-            range_until_lost(&mut sensor).await;
-            defmt::warn!("depth: read errors in a row; power-cycling the sensor");
-        }
-    }
-
-    /// Power-cycles (LPn) and starts the sensor, with a doubling back-off until it works.
-    async fn start(sensor: &mut Sensor) {
-        let mut backoff = FIRST_BACKOFF;
-        loop {
-            match configure(sensor).await {
-                Ok(()) => {
-                    defmt::info!("depth: VL53L5CX ranging 8x8 at {=u8} Hz", RANGING_HZ);
-                    return;
-                }
-                Err(step) => {
-                    defmt::warn!("depth: start-up failed at {=str}", step);
-                    HEALTH.depth_init_failures.bump();
-                }
-            }
-            Timer::after(backoff).await;
-            backoff = (backoff * 2).min(MAX_BACKOFF);
-        }
+        SUPERVISOR.run(&mut sensor).await
     }
 
     /// One start-up attempt; on failure, the step that failed.
@@ -175,46 +164,49 @@ mod ranging {
         sensor.start_ranging().map_err(|_| "start ranging")
     }
 
-    /// Polls for frames and hands them over until reads fail
-    /// [`ERRORS_BEFORE_RESTART`] times in a row.
-    async fn range_until_lost(sensor: &mut Sensor) {
-        let mut failures_in_a_row = 0;
-        while failures_in_a_row < ERRORS_BEFORE_RESTART {
-            Timer::after(POLL_PERIOD).await;
-            let ready = match sensor.check_data_ready() {
-                Ok(ready) => ready,
-                Err(_) => {
-                    HEALTH.depth_bus_errors.bump();
-                    failures_in_a_row += 1;
-                    continue;
-                }
+    impl Supervised for Sensor {
+        /// Power-cycles the sensor (LPn) and configures it.
+        async fn try_start(&mut self) -> Result<(), StartFailure> {
+            configure(self).await.map_err(|step| {
+                defmt::warn!("depth: start-up failed at {=str}", step);
+                StartFailure::Other
+            })
+        }
+
+        fn started(&self) {
+            defmt::info!("depth: VL53L5CX ranging 8x8 at {=u8} Hz", RANGING_HZ);
+        }
+
+        /// Asks whether a frame is ready and, if so, hands it to core 0 through [`ZONES`].
+        async fn read(&mut self) -> Read {
+            let Ok(ready) = self.check_data_ready() else {
+                return Read::BusError;
             };
             if !ready {
-                continue;
+                return Read::NotReady;
             }
             // The frame ended at most one poll period ago; its read-out takes a few ms more.
             let measured = Instant::now();
-            match sensor.get_ranging_data() {
-                Ok(data) => {
-                    failures_in_a_row = 0;
-                    // One target per zone (the crate's default), so zone i is entry i;
-                    // a zone with no target has no valid entry.
-                    let zones = ZoneResult::from_frame(
-                        data.distance_mm,
-                        data.target_status,
-                        &data.nb_target_detected,
-                    );
-                    ZONES.signal((zones, measured));
-                }
-                Err(_) => {
-                    HEALTH.depth_bus_errors.bump();
-                    failures_in_a_row += 1;
-                }
-            }
+            let Ok(data) = self.get_ranging_data() else {
+                return Read::BusError;
+            };
+            // One target per zone (the crate's default), so zone i is entry i; a zone with
+            // no target has no valid entry.
+            let zones = ZoneResult::from_frame(
+                data.distance_mm,
+                data.target_status,
+                &data.nb_target_detected,
+            );
+            ZONES.signal((zones, measured));
+            Read::Answered
         }
-        // No `stop_ranging` first: the power cycle that follows stops the sensor anyway,
-        // and on a sensor that is not answering the ULD waits out its 5 s timeout for a
-        // stop that never arrives (measured in the emulator: recovery 5 s later).
+
+        /// No `stop_ranging` first: the power cycle that follows stops the sensor anyway, and
+        /// on a sensor that is not answering the ULD would wait out its 5 s timeout for a
+        /// stop that never arrives, delaying the recovery by as much.
+        fn lost(&self) {
+            defmt::warn!("depth: read errors in a row; power-cycling the sensor");
+        }
     }
 
     /// Core 0: turns each frame from core 1 into a scan for the SLAM tick.

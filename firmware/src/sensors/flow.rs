@@ -15,13 +15,14 @@ use embassy_rp::peripherals::SPI0;
 use embassy_rp::spi::{self, Async, Phase, Polarity, Spi};
 use embassy_sync::blocking_mutex::raw::NoopRawMutex;
 use embassy_sync::mutex::Mutex;
-use embassy_time::{with_timeout, Delay, Duration, Ticker, Timer};
+use embassy_time::{with_timeout, Delay, Duration};
 use slam_core::FlowDelta;
 use static_cell::StaticCell;
 
 use crate::board::{FlowSensorPins, FLOW_SPI_HZ};
 use crate::health::HEALTH;
 use crate::inputs::FlowInbox;
+use crate::sensors::supervise::{Pace, Read, StartFailure, Supervised, Supervisor};
 use crate::Irqs;
 
 /// Read period: 100 Hz keeps each read's delta far inside the driver's outlier limit.
@@ -42,6 +43,16 @@ const MAX_BACKOFF: Duration = Duration::from_secs(5);
 /// Bus errors or timeouts in a row after which the sensor is started up again (it may
 /// have lost power or been unplugged).
 const ERRORS_BEFORE_RESTART: u32 = 10;
+
+/// The sensor's start-up and reads: one read every [`READ_PERIOD`], on a fixed grid.
+static SUPERVISOR: Supervisor = Supervisor {
+    first_backoff: FIRST_BACKOFF,
+    max_backoff: MAX_BACKOFF,
+    pace: Pace::Every(READ_PERIOD),
+    errors_before_restart: ERRORS_BEFORE_RESTART,
+    start_failures: &HEALTH.flow_init_failures,
+    bus_errors: &HEALTH.flow_bus_errors,
+};
 
 /// Counts to micrometres as the core sees it (`OdometryConfig::NOMINAL`, 100 um per
 /// count). The core scales counts itself; the driver's scale only fills `FlowSample`'s
@@ -81,71 +92,64 @@ pub async fn flow_task(pins: FlowSensorPins, irqs: Irqs, motion: &'static FlowIn
     );
     let bus = BUS.init(Mutex::new(spi));
     let cs = Output::new(pins.cs, Level::High);
-    let mut sensor = Pmw3901::new(SpiDevice::new(bus, cs), FlowConfig::new(CALIBRATION));
-
-    loop {
-        start(&mut sensor).await;
-        defmt::info!("flow: PMW3901 running at 100 Hz");
-        read_until_lost(&mut sensor, motion).await;
-        defmt::warn!(
-            "flow: {=u32} bus failures in a row; restarting",
-            ERRORS_BEFORE_RESTART
-        );
-    }
+    let sensor = Pmw3901::new(SpiDevice::new(bus, cs), FlowConfig::new(CALIBRATION));
+    SUPERVISOR.run(&mut FlowPart { sensor, motion }).await
 }
 
-/// Starts the sensor, retrying with a doubling back-off until it answers.
-async fn start(sensor: &mut Sensor) {
-    let mut backoff = FIRST_BACKOFF;
-    loop {
-        match with_timeout(INIT_TIMEOUT, sensor.init(&mut Delay)).await {
-            Ok(Ok(())) => return,
+/// The sensor and the inbox its motion goes to.
+struct FlowPart {
+    sensor: Sensor,
+    motion: &'static FlowInbox,
+}
+
+impl Supervised for FlowPart {
+    async fn try_start(&mut self) -> Result<(), StartFailure> {
+        match with_timeout(INIT_TIMEOUT, self.sensor.init(&mut Delay)).await {
+            Ok(Ok(())) => Ok(()),
             Ok(Err(e)) => {
-                if matches!(e, FlowError::Bus(_)) {
-                    HEALTH.flow_bus_errors.bump();
-                }
                 defmt::warn!("flow: start-up failed: {}", e);
+                Err(match e {
+                    FlowError::Bus(_) => StartFailure::Bus,
+                    _ => StartFailure::Other,
+                })
             }
             Err(_) => {
-                HEALTH.flow_bus_errors.bump();
                 defmt::warn!("flow: start-up timed out");
+                Err(StartFailure::Bus)
             }
         }
-        HEALTH.flow_init_failures.bump();
-        Timer::after(backoff).await;
-        backoff = (backoff * 2).min(MAX_BACKOFF);
     }
-}
 
-/// Reads at 100 Hz until the bus fails [`ERRORS_BEFORE_RESTART`] times in a row.
-async fn read_until_lost(sensor: &mut Sensor, motion: &FlowInbox) {
-    let mut ticker = Ticker::every(READ_PERIOD);
-    let mut failures_in_a_row = 0;
-    while failures_in_a_row < ERRORS_BEFORE_RESTART {
-        ticker.next().await;
-        let reading = match with_timeout(READ_TIMEOUT, sensor.read()).await {
-            Ok(Ok(reading)) => reading,
-            Ok(Err(_)) | Err(_) => {
-                HEALTH.flow_bus_errors.bump();
-                motion.poison();
-                failures_in_a_row += 1;
-                continue;
-            }
+    fn started(&self) {
+        defmt::info!("flow: PMW3901 running at 100 Hz");
+    }
+
+    async fn read(&mut self) -> Read {
+        let Ok(Ok(reading)) = with_timeout(READ_TIMEOUT, self.sensor.read()).await else {
+            self.motion.poison();
+            return Read::BusError;
         };
-        failures_in_a_row = 0;
         match reading {
-            FlowReading::Motion(sample) => motion.add(FlowDelta {
+            FlowReading::Motion(sample) => self.motion.add(FlowDelta {
                 forward_counts: i32::from(sample.forward_counts),
                 right_counts: i32::from(sample.right_counts),
             }),
             FlowReading::NoSurface { .. } => {
                 HEALTH.flow_no_surface.bump();
-                motion.poison();
+                self.motion.poison();
             }
             FlowReading::Outlier { .. } => {
                 HEALTH.flow_outliers.bump();
-                motion.poison();
+                self.motion.poison();
             }
         }
+        Read::Answered
+    }
+
+    fn lost(&self) {
+        defmt::warn!(
+            "flow: {=u32} bus failures in a row; restarting",
+            ERRORS_BEFORE_RESTART
+        );
     }
 }

@@ -25,13 +25,14 @@ use embassy_rp::i2c::{self, Async, I2c};
 use embassy_rp::peripherals::I2C1;
 use embassy_sync::blocking_mutex::raw::NoopRawMutex;
 use embassy_sync::mutex::Mutex;
-use embassy_time::{with_timeout, Delay, Duration, Instant, Ticker, Timer};
+use embassy_time::{with_timeout, Delay, Duration, Instant, Ticker};
 use slam_core::GyroRate;
 use static_cell::StaticCell;
 
 use crate::board::{ImuPins, IMU_I2C_HZ};
 use crate::health::HEALTH;
 use crate::inputs::Inputs;
+use crate::sensors::supervise::{Pace, Read, StartFailure, Supervised, Supervisor};
 use crate::Irqs;
 
 /// Sample period: the gyro's 200 Hz output data rate.
@@ -58,6 +59,16 @@ const MAX_BACKOFF: Duration = Duration::from_secs(5);
 /// Bus failures in a row after which the IMU is started up again (keeping its bias).
 const ERRORS_BEFORE_RESTART: u32 = 20;
 
+/// The IMU's start-up and samples: one every [`SAMPLE_PERIOD`], on a fixed grid.
+static SUPERVISOR: Supervisor = Supervisor {
+    first_backoff: FIRST_BACKOFF,
+    max_backoff: MAX_BACKOFF,
+    pace: Pace::Every(SAMPLE_PERIOD),
+    errors_before_restart: ERRORS_BEFORE_RESTART,
+    start_failures: &HEALTH.gyro_init_failures,
+    bus_errors: &HEALTH.gyro_bus_errors,
+};
+
 /// A rate at or beyond this is implausible (90 % of the +-1000 dps full scale: the reading
 /// is saturated or corrupt, and BugBot never turns faster than a few hundred degrees per
 /// second). Dropped and counted.
@@ -81,46 +92,22 @@ pub async fn imu_task(pins: ImuPins, irqs: Irqs, inputs: &'static Inputs) -> ! {
     let bus = BUS.init(Mutex::new(I2c::new_async(
         pins.i2c, pins.scl, pins.sda, irqs, config,
     )));
-    let mut imu = Icm42688::new(I2cDevice::new(bus), GyroConfig::default());
+    let imu = Icm42688::new(I2cDevice::new(bus), GyroConfig::default());
     // Held as a plain input so the line has a defined state; see the module doc.
     let _data_ready = Input::new(pins.int, Pull::None);
+    let mut part = ImuPart {
+        imu,
+        inputs,
+        last_sample: Instant::now(),
+    };
 
-    start(&mut imu).await;
-    calibrate(&mut imu).await;
+    // Calibrated once: a restart keeps the bias.
+    SUPERVISOR.start(&mut part).await;
+    calibrate(&mut part.imu).await;
     inputs.gyro_ready.signal(());
     loop {
-        sample_until_lost(&mut imu, inputs).await;
-        defmt::warn!(
-            "imu: {=u32} bus failures in a row; restarting",
-            ERRORS_BEFORE_RESTART
-        );
-        start(&mut imu).await;
-    }
-}
-
-/// Starts the IMU, retrying with a doubling back-off until it answers.
-async fn start(imu: &mut Imu) {
-    let mut backoff = FIRST_BACKOFF;
-    loop {
-        match with_timeout(INIT_TIMEOUT, imu.init(&mut Delay)).await {
-            Ok(Ok(())) => {
-                defmt::info!("imu: ICM-42688-P running at 200 Hz");
-                return;
-            }
-            Ok(Err(e)) => {
-                if matches!(e, ImuError::Bus(_)) {
-                    HEALTH.gyro_bus_errors.bump();
-                }
-                defmt::warn!("imu: start-up failed: {}", e);
-            }
-            Err(_) => {
-                HEALTH.gyro_bus_errors.bump();
-                defmt::warn!("imu: start-up timed out");
-            }
-        }
-        HEALTH.gyro_init_failures.bump();
-        Timer::after(backoff).await;
-        backoff = (backoff * 2).min(MAX_BACKOFF);
+        SUPERVISOR.read_until_lost(&mut part).await;
+        SUPERVISOR.start(&mut part).await;
     }
 }
 
@@ -162,43 +149,73 @@ async fn calibrate(imu: &mut Imu) {
     }
 }
 
-/// Samples at 200 Hz into the gyro inbox and the yaw integral until the bus fails
-/// [`ERRORS_BEFORE_RESTART`] times in a row.
-async fn sample_until_lost(imu: &mut Imu, inputs: &Inputs) {
-    let mut ticker = Ticker::every(SAMPLE_PERIOD);
-    let mut failures_in_a_row = 0;
-    let mut last_sample = Instant::now();
-    while failures_in_a_row < ERRORS_BEFORE_RESTART {
-        ticker.next().await;
-        let rate = match with_timeout(READ_TIMEOUT, imu.read_yaw_rate()).await {
-            Ok(Ok(rate)) => rate,
+/// The IMU and where its samples go.
+struct ImuPart {
+    imu: Imu,
+    inputs: &'static Inputs,
+    /// When the last good sample was taken, for the yaw integral's time step.
+    last_sample: Instant,
+}
+
+impl Supervised for ImuPart {
+    async fn try_start(&mut self) -> Result<(), StartFailure> {
+        match with_timeout(INIT_TIMEOUT, self.imu.init(&mut Delay)).await {
+            Ok(Ok(())) => Ok(()),
             Ok(Err(e)) => {
-                count_read_error(&e);
-                failures_in_a_row += 1;
-                continue;
+                defmt::warn!("imu: start-up failed: {}", e);
+                Err(match e {
+                    ImuError::Bus(_) => StartFailure::Bus,
+                    _ => StartFailure::Other,
+                })
             }
             Err(_) => {
-                HEALTH.gyro_bus_errors.bump();
-                failures_in_a_row += 1;
-                continue;
+                defmt::warn!("imu: start-up timed out");
+                Err(StartFailure::Bus)
             }
+        }
+    }
+
+    fn started(&self) {
+        defmt::info!("imu: ICM-42688-P running at 200 Hz");
+    }
+
+    fn reads_begin(&mut self) {
+        self.last_sample = Instant::now();
+    }
+
+    /// One sample into the gyro inbox and the yaw integral.
+    async fn read(&mut self) -> Read {
+        let rate = match with_timeout(READ_TIMEOUT, self.imu.read_yaw_rate()).await {
+            Ok(Ok(rate)) => rate,
+            Ok(Err(ImuError::InvalidSample)) => {
+                HEALTH.gyro_implausible.bump();
+                return Read::Failed;
+            }
+            Ok(Err(_)) | Err(_) => return Read::BusError,
         };
-        failures_in_a_row = 0;
         if rate.rate_mdps.unsigned_abs() >= MAX_PLAUSIBLE_RATE_MDPS.unsigned_abs() {
             HEALTH.gyro_implausible.bump();
-            continue;
+            return Read::Answered;
         }
         let now = Instant::now();
-        let gap_us = u32::try_from(now.saturating_duration_since(last_sample).as_micros())
+        let gap_us = u32::try_from(now.saturating_duration_since(self.last_sample).as_micros())
             .unwrap_or(u32::MAX);
-        last_sample = now;
+        self.last_sample = now;
         let rate = GyroRate {
             rate_mdps: rate.rate_mdps,
         };
-        inputs.gyro.add(rate);
-        inputs
+        self.inputs.gyro.add(rate);
+        self.inputs
             .yaw
             .integrate(rate, gap_us.min(MAX_INTEGRATION_GAP_US));
+        Read::Answered
+    }
+
+    fn lost(&self) {
+        defmt::warn!(
+            "imu: {=u32} bus failures in a row; restarting",
+            ERRORS_BEFORE_RESTART
+        );
     }
 }
 

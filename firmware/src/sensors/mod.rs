@@ -8,11 +8,16 @@
 //! (`embassy_time::with_timeout`) or an implausible value is counted in
 //! [`crate::health::HEALTH`] and the input goes stale, which the SLAM tick counts in
 //! `Counters::{flow,gyro,depth}_stale`.
+//!
+//! The flow, IMU and depth tasks share one loop ([`supervise`]): start the part with a
+//! doubling back-off, read it at its rate until too many reads in a row fail, start it
+//! again. Each supplies its own start-up attempt, read and timings.
 
 pub mod camera;
 pub mod depth;
 pub mod flow;
 pub mod imu;
+pub mod supervise;
 
 /// Parks a placeholder task for good, keeping the hardware it owns alive and configured.
 pub(crate) async fn park() -> ! {
