@@ -4,7 +4,8 @@ use super::map::GridGeometry;
 use crate::pose::div_floor;
 
 /// Floor division by the cell size by a multiply and a shift: the Cortex-M0+ has no
-/// divide instruction, and a beam needs six divisions (about 140 cycles each in software).
+/// divide instruction, and every beam needs the cells of its ends (each a library division
+/// in software without this).
 ///
 /// For `0 <= a < 2^15` (a point up to 32 m from the grid's corner), `floor(a / cell)` is
 /// `(a * m) >> s` with `s = 15 + ceil(log2(cell))` and `m = ceil(2^s / cell)`: then

@@ -13,9 +13,9 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
     /// Any walk: beams take [`GridMap::free_ray`] first, which leaves here only what its
     /// loop does not cover. When both end cells are in the grid, so is every cell between
     /// (the walk never leaves their bounding box), and the loop steps a flat index instead
-    /// of checking each cell's column and row. Never inlined: inlined into the step (and
-    /// the firmware's task) its state was spilled to the stack on the Cortex-M0+, at about
-    /// 90 cycles a cell.
+    /// of checking each cell's column and row. Never inlined: inside a large caller (the
+    /// step, the firmware's task) its loop state does not fit the Cortex-M0+'s registers
+    /// and goes through the stack at every cell.
     #[inline(never)]
     fn mark_free<T: WalkInt>(&mut self, walk: Walk<T>, spared: Option<(i32, i32)>) -> u32 {
         let miss = i32::from(self.evidence.miss);
@@ -258,9 +258,9 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
     /// [`GridMap::insert_beam`] for a beam from `start`: its free cells end `free`
     /// millimetres away (`dx`, `dy`), and it stopped `to` away.
     ///
-    /// Never inlined, with `free_ray` inlined into it: a beam's set-up then has
-    /// a frame of its own, not the caller's crowded one (inlined into the firmware's SLAM
-    /// task it went through the stack: about 90 M0+ cycles more a beam).
+    /// Never inlined, with `free_ray` inlined into it: a beam's set-up then has a frame of
+    /// its own, not the caller's crowded one, where its values would go through the stack
+    /// on the Cortex-M0+.
     #[inline(never)]
     pub fn insert_ray(
         &mut self,

@@ -89,8 +89,7 @@ pub trait WalkInt:
     fn narrow(v: i64) -> Self;
     /// `floor(self / cell)`.
     fn cells(self, divider: &CellDivider) -> Self;
-    /// A cell index as the grid's `i32` (cells past `i32` wrap, as they always have: no
-    /// grid is that large).
+    /// A cell index as the grid's `i32` (cells past `i32` wrap: no grid is that large).
     fn index(self) -> i32;
     /// `|self|`, as a count of cell boundaries.
     fn count(self) -> u32;
