@@ -18,9 +18,11 @@
 //!
 //! # Beams
 //!
-//! The 8 beams split the sensor's 45 degree width evenly (5.625 degrees
-//! each) and are ordered left (most negative angle, BugBot's angles being
-//! clockwise-positive) to right; see [`BEAM_CENTRE_UDEG`].
+//! The 8 beams split the sensor's 45 degree width ([`FOV_MDEG`]) evenly
+//! (5.625 degrees each) and are ordered left (most negative angle, BugBot's
+//! angles being clockwise-positive) to right; see [`BEAM_CENTRE_UDEG`]. The
+//! SLAM core is configured from the same width (`slam_core::slam::fan`), so
+//! the firmware maps each beam along the direction its zones look.
 //!
 //! Each beam's range is the nearest accepted zone in that column among the
 //! rows `first_row..=last_row` of [`DepthConfig`] (default 3 and 4).
@@ -47,14 +49,22 @@ pub const STATUS_VALID_NO_WRAP_CHECK: u8 = 6;
 /// (lower confidence, accepted).
 pub const STATUS_VALID_LARGE_PULSE: u8 = 9;
 
+/// Width of the zone array's view side to side, in millidegrees (the
+/// datasheet's 45 degree horizontal field of view in 8 x 8 mode).
+pub const FOV_MDEG: i32 = 45_000;
+
 /// Beam centre angles in microdegrees, clockwise-positive, beam 0 (the
-/// robot's leftmost) first. Beam `b` covers
-/// `-22.5 + 5.625 b .. -22.5 + 5.625 (b + 1)` degrees.
+/// robot's leftmost) first: the centres of [`BEAM_COUNT`] equal slices of
+/// [`FOV_MDEG`]. Beam `b` covers `-22.5 + 5.625 b .. -22.5 + 5.625 (b + 1)`
+/// degrees.
 pub const BEAM_CENTRE_UDEG: [i32; BEAM_COUNT] = {
+    let fov_udeg = FOV_MDEG as i64 * 1000;
     let mut out = [0i32; BEAM_COUNT];
     let mut b = 0;
     while b < BEAM_COUNT {
-        out[b] = -22_500_000 + 2_812_500 + 5_625_000 * b as i32;
+        // Centre of slice b: -w/2 + w * (2b + 1) / (2 * BEAM_COUNT), exact in microdegrees.
+        let udeg = -fov_udeg / 2 + fov_udeg * (2 * b as i64 + 1) / (2 * BEAM_COUNT as i64);
+        out[b] = udeg as i32;
         b += 1;
     }
     out

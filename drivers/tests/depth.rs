@@ -1,7 +1,7 @@
 //! VL53L5CX zone reduction: statuses, empty columns, negatives, mirror.
 
 use drivers::depth::{
-    reduce, status_accepted, BeamRanges, DepthConfig, ZoneResult, BEAM_CENTRE_UDEG,
+    reduce, status_accepted, BeamRanges, DepthConfig, ZoneResult, BEAM_CENTRE_UDEG, FOV_MDEG,
     STATUS_NO_TARGET, STATUS_VALID, ZONE_COUNT,
 };
 
@@ -124,7 +124,22 @@ fn beams_run_left_to_right_symmetrically() {
     for b in 0..8 {
         assert_eq!(BEAM_CENTRE_UDEG[b], -BEAM_CENTRE_UDEG[7 - b]);
     }
-    assert!(BEAM_CENTRE_UDEG.windows(2).all(|w| w[0] < w[1]));
+    assert!(BEAM_CENTRE_UDEG
+        .windows(2)
+        .all(|w| w[1] - w[0] == 5_625_000));
+}
+
+/// The SLAM core maps beam `b` along the direction its zones look: the seed's depth fan
+/// is the core's `fan` of the sensor's width, and each of its angles is the zone centre
+/// to within the millidegree the core's fan rounds to.
+#[test]
+fn the_cores_beam_angles_are_the_sensors_zone_centres() {
+    let fan = slam_core::slam::fan(i64::from(FOV_MDEG));
+    assert_eq!(slam_core::DepthConfig::SEED.beam_angles, fan);
+    for (angle, udeg) in fan.iter().zip(BEAM_CENTRE_UDEG) {
+        let off_udeg = angle.to_microdegrees() - udeg;
+        assert!(off_udeg.abs() <= 1_000, "{udeg} udeg against {angle:?}");
+    }
 }
 
 #[test]

@@ -175,7 +175,7 @@ pub struct DepthReading {
 }
 
 /// One camera picture's tags and when they reached the robot.
-#[derive(Clone, Copy)]
+#[derive(Clone)]
 pub struct TagPicture {
     /// The tags read (empty: none in view).
     pub tags: TagDetections,

@@ -42,6 +42,14 @@ const TICKS_PER_LOG: u32 = 10;
 /// where tags 11 and 12 hang (the simulator's scenario is tested to agree).
 pub const START_POSE: Pose = SlamConfig::SEED_START;
 
+/// The seed's world, its depth beams along the centres of the VL53L5CX's zone columns: the
+/// core's fan of the sensor's own width (the drivers' tests hold the seed's fan to it).
+fn slam_config() -> SlamConfig {
+    let mut config = SlamConfig::seed_mat();
+    config.depth.beam_angles = slam_core::slam::fan(i64::from(drivers::depth::FOV_MDEG));
+    config
+}
+
 /// How many tasks may follow the reports: the motion task (its heartbeat) and one spare
 /// for a planner.
 pub const REPORT_READERS: usize = 2;
@@ -128,7 +136,7 @@ pub async fn slam_task(watchdog: Peri<'static, WATCHDOG>, inputs: &'static Input
         None => {}
     }
 
-    let slam = match SeedSlam::new(SlamConfig::seed_mat(), START_POSE) {
+    let slam = match SeedSlam::new(slam_config(), START_POSE) {
         Ok(slam) => SLAM.init(slam),
         // The configuration is fixed at build time and tested on the host: this is a bug.
         Err(e) => defmt::panic!("slam: configuration rejected: {}", e),

@@ -47,54 +47,12 @@ pub struct TagDetection {
     pub distance_mm: u32,
 }
 
-/// Error: a fixed-capacity list is full.
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Full;
-
-/// Up to [`MAX_TAGS`] detections, without an allocator.
-#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct TagDetections {
-    items: [TagDetection; MAX_TAGS],
-    len: u8,
-}
-
-impl TagDetections {
-    /// Adds a detection, or says the list is full.
-    pub fn push(&mut self, detection: TagDetection) -> Result<(), Full> {
-        let slot = self.items.get_mut(self.len as usize).ok_or(Full)?;
-        *slot = detection;
-        self.len += 1;
-        Ok(())
-    }
-
-    /// The detections held.
-    pub fn as_slice(&self) -> &[TagDetection] {
-        self.items.get(..self.len as usize).unwrap_or(&[])
-    }
-
-    /// Whether no tag was read.
-    pub fn is_empty(&self) -> bool {
-        self.len == 0
-    }
-}
-
-impl<'a> FromIterator<&'a TagDetection> for TagDetections {
-    /// Collects up to [`MAX_TAGS`] detections; the rest are dropped.
-    fn from_iter<I: IntoIterator<Item = &'a TagDetection>>(iter: I) -> Self {
-        let mut out = TagDetections::default();
-        for d in iter {
-            if out.push(*d).is_err() {
-                break;
-            }
-        }
-        out
-    }
-}
+/// Up to [`MAX_TAGS`] detections, without an allocator; `push` hands back a detection that
+/// does not fit.
+pub type TagDetections = heapless::Vec<TagDetection, MAX_TAGS>;
 
 /// Everything one tick of the core needs; built by the firmware or the simulator.
-#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+#[derive(Clone, PartialEq, Eq, Debug, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct SensorFrame {
     /// Time since the previous frame, in microseconds.
@@ -131,14 +89,7 @@ impl SensorFrame {
             gyro: None,
             depth: None,
             depth_age_us: 0,
-            tags: TagDetections {
-                items: [TagDetection {
-                    id: 0,
-                    cx_centipx: 0,
-                    distance_mm: 0,
-                }; MAX_TAGS],
-                len: 0,
-            },
+            tags: TagDetections::new(),
             tags_age_us: 0,
             external_pose: None,
         }

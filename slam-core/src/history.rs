@@ -134,8 +134,8 @@ fn interpolate(older: &Pose, newer: &Pose, back_us: u32, span_us: u32) -> Pose {
 }
 
 /// `part / whole` in Q16 for `whole` in `1..2^15`, `part` clamped to `whole`: sixteen steps
-/// of long division, about half the cycles of the library's general one on the M0+ (which
-/// has no divide instruction).
+/// of long division, with none of the cases the library's general division must handle
+/// (the M0+ has no divide instruction).
 fn fraction_q16(part: u32, whole: u32) -> i32 {
     if part >= whole {
         return 1 << 16;

@@ -392,21 +392,19 @@ fn cell_walk_grazing_examples() {
     assert_eq!(walk, [(3, 3), (3, 2)]);
 }
 
-/// Regression test for a bug, now fixed, in `slam-core/src/grid.rs` (`CellWalk::next`): a segment moving +x and -y
-/// whose end point lies exactly on a grid corner. At `t = 1` both `next_column` and
-/// `next_row` are due; the tie goes to the row, but a boundary reached exactly at the end
-/// while moving in the *negative* direction is not crossed (the half-open cell of the end
-/// point is still the same row), so the walk spends its last step on a phantom row
-/// crossing and ends in `(end.0 - 1, end.1 - 1)` instead of `end`.
-///
-/// In `insert_beam` this marks the wrong last free cell whenever `free_end` rounds onto a
-/// grid corner with the beam heading between 90 and 180 degrees (about one beam in 10,000).
-/// A fix: break ties towards the axis that moves in the positive direction, or count the
-/// column and row steps left separately and never step an axis that has none left.
+/// A segment moving +x and -y whose end point lies exactly on a grid corner ends in the end
+/// point's own cell. At `t = 1` both boundaries are due, but one reached exactly at the end
+/// while moving in the negative direction is not crossed (the end point's half-open cell is
+/// still on the same row), so a walk that gave the tie to the row would spend its last step
+/// on a phantom crossing and end in `(end.0 - 1, end.1 - 1)`; `insert_beam` would then free
+/// the wrong last cell whenever `free_end` falls on a corner with the beam heading between
+/// 90 and 180 degrees. The walk counts the boundaries left on each axis and never steps an
+/// axis with none left.
 #[test]
 fn cell_walk_ends_at_the_end_cell_when_it_ends_on_a_corner() {
     let geo = seed_geometry();
-    // Relative to the grid origin: from (-450, 150) to (0, 0), the corner of cell (3, 3).
+    // Relative to the grid origin: from (-450, 150) to (0, 0), the lower-left corner of
+    // cell (0, 0).
     let from = (-600, 0);
     let to = (-150, -150);
     let walk: Vec<_> = CellWalk::new(&geo, from, to).collect();

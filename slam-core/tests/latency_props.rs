@@ -337,7 +337,7 @@ fn too_old_pictures_are_refused_and_counted() {
 
     // One tag, or none, is no fix at any age: nothing counted.
     let mut frame = SensorFrame::empty(DT_US);
-    frame.tags = tags_then(8, 0).as_slice()[..1].iter().collect();
+    frame.tags = tags_then(8, 0).as_slice()[..1].iter().copied().collect();
     frame.tags_age_us = u32::MAX;
     assert_eq!(slam.step(&frame).fix, FixOutcome::NotAttempted);
     frame.tags = TagDetections::default();
@@ -499,8 +499,8 @@ fn ageless_frame() -> impl Strategy<Value = SensorFrame> {
                 if let Some(tags) = seen_from(&t) {
                     let mut first = tags.as_slice()[0];
                     first.distance_mm = (first.distance_mm as f64 * misread) as u32;
-                    frame.tags = std::iter::once(&first)
-                        .chain(&tags.as_slice()[1..])
+                    frame.tags = std::iter::once(first)
+                        .chain(tags.as_slice()[1..].iter().copied())
                         .collect();
                 }
             }

@@ -84,7 +84,7 @@ fn drive(with_tags: bool) -> Run {
         frame.gyro = Some(GyroRate { rate_mdps: rate });
         frame.depth = Some(DepthScan { ranges_mm });
         if with_tags {
-            frame.tags = tags_seen(&truth).iter().collect();
+            frame.tags = tags_seen(&truth).iter().copied().collect();
         }
         let report = slam.step(&frame);
         outcomes.push(report.fix);

@@ -272,7 +272,7 @@ proptest! {
         let step = |tags: &[TagDetection]| {
             let mut slam: Slam<46, 46> = Slam::new(SlamConfig::seed_mat(), Pose::from_mm_mdeg(1000, 800, 0)).unwrap();
             let mut frame = SensorFrame::empty(100_000);
-            frame.tags = tags.iter().collect();
+            frame.tags = tags.iter().copied().collect();
             let report = slam.step(&frame);
             (report.fix, report.pose)
         };
@@ -315,7 +315,7 @@ fn tag_at_distance_zero_gives_no_fix() {
     let mut slam: Slam<46, 46> =
         Slam::new(SlamConfig::seed_mat(), Pose::from_mm_mdeg(1500, 1150, 0)).unwrap();
     let mut frame = SensorFrame::empty(100_000);
-    frame.tags = [a, b].iter().collect();
+    frame.tags = [a, b].into_iter().collect();
     let outcomes: Vec<FixOutcome> = (0..6).map(|_| slam.step(&frame).fix).collect();
     assert!(
         fix.is_err(),

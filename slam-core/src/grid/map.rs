@@ -1,0 +1,235 @@
+//! The grid: its cells' log odds, where it lies, and what it believes about each cell.
+
+use super::divider::CellDivider;
+
+/// Log odds in Q8 fixed point: 256 is a log-odds of 1.0.
+pub type LogOdds = i16;
+
+/// One log-odds unit (1.0) in [`LogOdds`].
+pub const LOG_ODDS_ONE: LogOdds = 256;
+
+/// How much one beam says about a cell, and when a cell counts as known.
+///
+/// The defaults are the seed's: +0.85 where a beam stops, -0.4 where it passes,
+/// clamped to +-8, free below -1 and occupied above +1.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Evidence {
+    /// Added to the cell where a beam stops (positive).
+    pub hit: LogOdds,
+    /// Added to each cell a beam passes through (negative).
+    pub miss: LogOdds,
+    /// Cells saturate at `+-clamp`.
+    pub clamp: LogOdds,
+    /// A cell below `-free_below` is free; above `occupied_above` it is occupied.
+    pub free_below: LogOdds,
+    /// See `free_below`.
+    pub occupied_above: LogOdds,
+}
+
+impl Evidence {
+    /// The seed's evidence in Q8: +0.85 -> 218, -0.4 -> -102, +-8 -> +-2048, +-1 -> +-256.
+    pub const SEED: Evidence = Evidence {
+        hit: 218,
+        miss: -102,
+        clamp: 8 * LOG_ODDS_ONE,
+        free_below: LOG_ODDS_ONE,
+        occupied_above: LOG_ODDS_ONE,
+    };
+}
+
+impl Default for Evidence {
+    fn default() -> Self {
+        Evidence::SEED
+    }
+}
+
+/// What the map believes about a cell.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Occupancy {
+    /// No opinion yet, or not enough evidence either way.
+    Unknown,
+    /// Beams have passed through it.
+    Free,
+    /// Beams have stopped in it.
+    Occupied,
+}
+
+/// Where the grid lies in the map frame.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct GridGeometry {
+    /// Side of one square cell, in millimetres (> 0).
+    pub cell_mm: i32,
+    /// Map-frame x of the grid's lower-left corner, in millimetres.
+    pub origin_x_mm: i32,
+    /// Map-frame y of the grid's lower-left corner, in millimetres.
+    pub origin_y_mm: i32,
+}
+
+impl GridGeometry {
+    /// The cell `(column, row)` holding map point `(x_mm, y_mm)`; may lie outside the grid.
+    pub fn cell_of(&self, x_mm: i32, y_mm: i32) -> (i32, i32) {
+        (
+            (x_mm - self.origin_x_mm).div_euclid(self.cell_mm),
+            (y_mm - self.origin_y_mm).div_euclid(self.cell_mm),
+        )
+    }
+
+    /// Map-frame centre of cell `(column, row)`, in millimetres (rounded down to whole mm).
+    pub fn centre_of(&self, column: i32, row: i32) -> (i32, i32) {
+        (
+            self.origin_x_mm + column * self.cell_mm + self.cell_mm / 2,
+            self.origin_y_mm + row * self.cell_mm + self.cell_mm / 2,
+        )
+    }
+}
+
+/// Counts of the grid's cells by what the map believes.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct OccupancyCounts {
+    /// Cells believed free.
+    pub free: u32,
+    /// Cells believed occupied.
+    pub occupied: u32,
+    /// Cells with no firm belief.
+    pub unknown: u32,
+}
+
+/// A `W` x `H` log-odds grid; row 0 is the lowest y, column 0 the lowest x.
+///
+/// The seed's mat is `GridMap<46, 46>` (5 cm cells, 15 cm margin, 4.2 KB); a 10 m room at
+/// 5 cm is `GridMap<206, 206>` (83 KB). Sized by const generics so there is no allocator.
+#[derive(Clone, PartialEq, Eq, Debug)]
+pub struct GridMap<const W: usize, const H: usize> {
+    pub(super) geometry: GridGeometry,
+    pub(super) evidence: Evidence,
+    /// Divides by the cell size without dividing, for every beam's cells.
+    pub(super) divider: CellDivider,
+    pub(super) cells: [[LogOdds; W]; H],
+}
+
+impl<const W: usize, const H: usize> GridMap<W, H> {
+    /// Columns in the grid.
+    pub const WIDTH: usize = W;
+    /// Rows in the grid.
+    pub const HEIGHT: usize = H;
+
+    /// An empty (all unknown) grid.
+    pub const fn new(geometry: GridGeometry, evidence: Evidence) -> Self {
+        GridMap {
+            geometry,
+            evidence,
+            divider: CellDivider::new(geometry.cell_mm as i64),
+            cells: [[0; W]; H],
+        }
+    }
+
+    /// Forgets everything: every cell back to unknown.
+    pub fn clear(&mut self) {
+        for row in self.cells.iter_mut() {
+            row.fill(0);
+        }
+    }
+
+    /// Where the grid lies.
+    pub fn geometry(&self) -> &GridGeometry {
+        &self.geometry
+    }
+
+    /// The evidence rules in use.
+    pub fn evidence(&self) -> &Evidence {
+        &self.evidence
+    }
+
+    /// The log odds of a cell, or `None` outside the grid.
+    pub fn log_odds(&self, column: i32, row: i32) -> Option<LogOdds> {
+        let row = self.cells.get(usize::try_from(row).ok()?)?;
+        row.get(usize::try_from(column).ok()?).copied()
+    }
+
+    /// What the map believes about a cell; outside the grid is unknown.
+    pub fn occupancy(&self, column: i32, row: i32) -> Occupancy {
+        self.log_odds(column, row)
+            .map_or(Occupancy::Unknown, |l| self.classify(l))
+    }
+
+    fn classify(&self, l: LogOdds) -> Occupancy {
+        if l < -self.evidence.free_below {
+            Occupancy::Free
+        } else if l > self.evidence.occupied_above {
+            Occupancy::Occupied
+        } else {
+            Occupancy::Unknown
+        }
+    }
+
+    /// Every row of raw log odds, lowest y first: for telemetry and pictures.
+    pub fn rows(&self) -> &[[LogOdds; W]; H] {
+        &self.cells
+    }
+
+    /// Counts cells by belief.
+    pub fn counts(&self) -> OccupancyCounts {
+        let mut counts = OccupancyCounts::default();
+        for &l in self.cells.iter().flatten() {
+            match self.classify(l) {
+                Occupancy::Free => counts.free += 1,
+                Occupancy::Occupied => counts.occupied += 1,
+                Occupancy::Unknown => counts.unknown += 1,
+            }
+        }
+        counts
+    }
+
+    /// Adds `amount` to a cell, saturating at the clamp; cells outside the grid are ignored.
+    /// Returns whether the cell was inside.
+    #[inline]
+    pub fn add(&mut self, column: i32, row: i32, amount: LogOdds) -> bool {
+        // One unsigned comparison per axis rejects negatives too; the sum in 32 bits cannot
+        // overflow, and the clamp (at most `i16::MAX`) brings it back into a cell.
+        let (Ok(column), Ok(row)) = (usize::try_from(column), usize::try_from(row)) else {
+            return false;
+        };
+        let Some(cell) = self.cells.get_mut(row).and_then(|r| r.get_mut(column)) else {
+            return false;
+        };
+        let clamp = i32::from(self.evidence.clamp);
+        *cell = (i32::from(*cell) + i32::from(amount))
+            .max(-clamp)
+            .min(clamp) as LogOdds;
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::TEST_GEOMETRY as GEO;
+
+    #[test]
+    fn cells_saturate_and_classify() {
+        let mut g: GridMap<4, 4> = GridMap::new(GEO, Evidence::SEED);
+        for _ in 0..100 {
+            g.add(1, 1, Evidence::SEED.hit);
+            g.add(2, 2, Evidence::SEED.miss);
+        }
+        assert_eq!(g.log_odds(1, 1), Some(2048));
+        assert_eq!(g.log_odds(2, 2), Some(-2048));
+        assert_eq!(g.occupancy(1, 1), Occupancy::Occupied);
+        assert_eq!(g.occupancy(2, 2), Occupancy::Free);
+        assert_eq!(g.occupancy(0, 0), Occupancy::Unknown);
+        assert!(!g.add(-1, 0, 5));
+        assert!(!g.add(0, 4, 5));
+        assert_eq!(
+            g.counts(),
+            OccupancyCounts {
+                free: 1,
+                occupied: 1,
+                unknown: 14
+            }
+        );
+    }
+}

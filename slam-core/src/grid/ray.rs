@@ -1,0 +1,502 @@
+//! Writing a depth beam into the grid: free along it, occupied where it stopped.
+//!
+//! A beam from inside the grid and shorter than [`SHORT_WALK_MM`] takes a specialised loop
+//! (`free_ray` and `free_walk`); anything else takes the general walk (`mark_free`).
+
+use super::map::{Evidence, GridMap, LogOdds};
+use super::walk::{CellWalk, Walk, WalkInt, SHORT_WALK_MM};
+
+impl<const W: usize, const H: usize> GridMap<W, H> {
+    /// Marks the cells of `walk` free but for `spared`; returns how many were inside the
+    /// grid.
+    ///
+    /// Any walk: beams take [`GridMap::free_ray`] first, which leaves here only what its
+    /// loop does not cover. When both end cells are in the grid, so is every cell between
+    /// (the walk never leaves their bounding box), and the loop steps a flat index instead
+    /// of checking each cell's column and row. Never inlined: inside a large caller (the
+    /// step, the firmware's task) its loop state does not fit the Cortex-M0+'s registers
+    /// and goes through the stack at every cell.
+    #[inline(never)]
+    fn mark_free<T: WalkInt>(&mut self, walk: Walk<T>, spared: Option<(i32, i32)>) -> u32 {
+        let miss = i32::from(self.evidence.miss);
+        let clamp = i32::from(self.evidence.clamp);
+        let index = |(column, row): (i32, i32)| {
+            let inside = (column as u32) < W as u32 && (row as u32) < H as u32;
+            inside.then(|| row as usize * W + column as usize)
+        };
+        let ends = (index((walk.column, walk.row)), index(walk.end()));
+        let (Some(mut at), Some(_), true) = (ends.0, ends.1, miss <= 0) else {
+            // An end outside the grid (or evidence that adds where beams pass): cell by
+            // cell, skipping those outside.
+            let mut written = 0;
+            for cell in walk {
+                if Some(cell) != spared && self.add(cell.0, cell.1, self.evidence.miss) {
+                    written += 1;
+                }
+            }
+            return written;
+        };
+        // Every cell visited is written but the spared one: counted once, not per cell.
+        // Once met, `spared` becomes `SEEN`, which no index reaches (fewer registers than
+        // a flag: the M0+ has eight).
+        const SEEN: usize = usize::MAX - 1;
+        let visited = 1 + walk.columns_left + walk.rows_left;
+        let mut spared = spared.and_then(index).unwrap_or(usize::MAX);
+        let column_step = walk.step_column as isize;
+        let row_step = walk.step_row as isize * W as isize;
+        let cells = self.cells.as_flattened_mut();
+        let mut free = |at: usize| {
+            if at == spared {
+                spared = SEEN;
+            } else if let Some(cell) = cells.get_mut(at) {
+                // Cells never exceed the clamp, so a negative miss needs only the floor.
+                *cell = (i32::from(*cell) + miss).max(-clamp) as LogOdds;
+            }
+        };
+        // `Walk::advance`'s rule in two phases, each with fewer live values than the M0+
+        // has registers for: while both axes have boundaries left the difference decides;
+        // then the rest is a straight run along the one axis left. The test
+        // `beams_write_exactly_the_cells_their_walk_visits` holds it to the iterator.
+        let (mut diff, mut columns, mut rows) = (walk.diff, walk.columns_left, walk.rows_left);
+        free(at);
+        while columns > 0 && rows > 0 {
+            if diff < T::ZERO {
+                columns -= 1;
+                diff = diff + walk.delta_column;
+                at = at.wrapping_add_signed(column_step);
+            } else {
+                rows -= 1;
+                diff = diff - walk.delta_row;
+                at = at.wrapping_add_signed(row_step);
+            }
+            free(at);
+        }
+        let (run, step) = if columns > 0 {
+            (columns, column_step)
+        } else {
+            (rows, row_step)
+        };
+        for _ in 0..run {
+            at = at.wrapping_add_signed(step);
+            free(at);
+        }
+        visited - u32::from(spared == SEEN)
+    }
+
+    /// Frees a beam's walk from `o`'s cell to `end` (millimetres from the grid's
+    /// corner, in the grid, less than [`SHORT_WALK_MM`] from the start along each axis),
+    /// sparing `spared`; `None` when the walk needs [`GridMap::mark_free`] instead.
+    ///
+    /// The common case in one loop with one counter, specialised by direction, which the
+    /// Cortex-M0+ runs from its registers. The walk crosses exactly the first
+    /// `columns + rows` boundaries of its line in the order of `Walk::advance`'s
+    /// difference rule; `advance` also counts boundaries per axis only to end a segment
+    /// that stops exactly on a cell corner in its own cell. Such a walk, a spared cell
+    /// anywhere but the end (a beam's hit cell is further along the same ray, so it is on
+    /// the walk only as its end cell), or evidence that adds where beams pass, is left to
+    /// `mark_free`.
+    #[inline(always)]
+    fn free_ray(
+        &mut self,
+        o: &OriginCell,
+        end: (i32, i32),
+        cell_of_end: (i32, i32),
+        spared: Option<(i32, i32)>,
+    ) -> Option<u32> {
+        let cell = self.geometry.cell_mm;
+        let (column, row) = cell_of_end;
+        let (dx, dy) = (end.0 - o.x, end.1 - o.y);
+        let spare_end = spared == Some(cell_of_end);
+        let between = |v: i32, a: i32, b: i32| a.min(b) <= v && v <= a.max(b);
+        let spared_on_the_way = !spare_end
+            && spared.is_some_and(|(c, r)| between(c, o.column, column) && between(r, o.row, row));
+        let on_corner = column * cell == end.0 && row * cell == end.1;
+        if on_corner || spared_on_the_way || self.evidence.miss > 0 {
+            return None;
+        }
+        let (columns, rows) = (column.abs_diff(o.column), row.abs_diff(o.row));
+        let (adx, ady) = (dx.abs(), dy.abs());
+        // Along one axis only, the difference must always pick that axis.
+        let steps = match (columns, rows) {
+            (_, 0) => Steps {
+                diff: -1,
+                delta_column: 0,
+                delta_row: 0,
+            },
+            (0, _) => Steps {
+                diff: 0,
+                delta_column: 0,
+                delta_row: 0,
+            },
+            _ => Steps {
+                diff: (if dx > 0 { o.right } else { o.left }) * ady
+                    - (if dy > 0 { o.up } else { o.down }) * adx,
+                delta_column: cell * ady,
+                delta_row: cell * adx,
+            },
+        };
+        let at = o.row as usize * W + o.column as usize;
+        let count = 1 + columns + rows - u32::from(spare_end);
+        let direction = (dx > 0, dy > 0);
+        let (miss, floor) = (self.evidence.miss, -self.evidence.clamp);
+        if (miss, floor) == (Evidence::SEED.miss, -Evidence::SEED.clamp) {
+            self.free_walk_in_direction(direction, at, steps, count, SeedMiss);
+        } else {
+            let miss = AnyMiss {
+                miss: i32::from(miss),
+                floor: i32::from(floor),
+            };
+            self.free_walk_in_direction(direction, at, steps, count, miss);
+        }
+        Some(count)
+    }
+
+    /// [`GridMap::free_walk`] for the walk's direction: right, up.
+    #[inline(always)]
+    fn free_walk_in_direction<M: Miss>(
+        &mut self,
+        direction: (bool, bool),
+        at: usize,
+        steps: Steps,
+        count: u32,
+        miss: M,
+    ) {
+        match direction {
+            (true, true) => self.free_walk::<true, true, M>(at, steps, count, miss),
+            (true, false) => self.free_walk::<true, false, M>(at, steps, count, miss),
+            (false, true) => self.free_walk::<false, true, M>(at, steps, count, miss),
+            (false, false) => self.free_walk::<false, false, M>(at, steps, count, miss),
+        }
+    }
+
+    /// Frees `count` cells from flat index `at`, stepping right (`RIGHT`) or left and up
+    /// (`UP`) or down as `steps` decides. Never inlined: alone, its state nearly fits the
+    /// M0+'s registers. Each step is looked up by the difference's sign bit, which the M0+
+    /// does in fewer cycles than the compare-and-select the compiler makes of an `if`.
+    #[inline(never)]
+    fn free_walk<const RIGHT: bool, const UP: bool, M: Miss>(
+        &mut self,
+        mut at: usize,
+        steps: Steps,
+        count: u32,
+        miss: M,
+    ) {
+        let column_step: isize = if RIGHT { 1 } else { -1 };
+        let row_step: isize = if UP { W as isize } else { -(W as isize) };
+        let cells = self.cells.as_flattened_mut();
+        let Steps {
+            mut diff,
+            delta_column,
+            delta_row,
+        } = steps;
+        let by_sign = [
+            (delta_row.wrapping_neg(), row_step),
+            (delta_column, column_step),
+        ];
+        for _ in 0..count {
+            if let Some(cell) = cells.get_mut(at) {
+                *cell = miss.apply(*cell);
+            }
+            // One step past the last cell is computed and never used.
+            let (d, step) = by_sign[(diff as u32 >> 31) as usize];
+            diff = diff.wrapping_add(d);
+            at = at.wrapping_add_signed(step);
+        }
+    }
+
+    /// Writes one beam: free along it, occupied where it stopped.
+    ///
+    /// `from` is the sensor's position and `to` where the beam stopped, both map millimetres.
+    /// Cells from the sensor's cell to the cell of `free_end` are marked free once each
+    /// (integer grid traversal: every cell the segment crosses, none twice); the cell of `to`
+    /// is marked occupied when `hit` is set and is never also marked free. Cells outside
+    /// the grid are skipped. Returns the number of cells written.
+    pub fn insert_beam(
+        &mut self,
+        from: (i32, i32),
+        free_end: (i32, i32),
+        to: (i32, i32),
+        hit: bool,
+    ) -> u32 {
+        let start = self.beam_origin(from);
+        let along = |p: (i32, i32)| Some((p.0.checked_sub(from.0)?, p.1.checked_sub(from.1)?));
+        match (along(free_end), along(to)) {
+            (Some(free), Some(stop)) => self.insert_ray(&start, free, stop, hit),
+            _ => self.insert_beam_any(from, free_end, to, hit),
+        }
+    }
+
+    /// Where beams from `from` (map millimetres) start, worked out once for a scan's beams.
+    pub fn beam_origin(&self, from: (i32, i32)) -> BeamOrigin {
+        let g = &self.geometry;
+        let divider = &self.divider;
+        let cell = (|| {
+            let (x, y) = (
+                from.0.checked_sub(g.origin_x_mm)?,
+                from.1.checked_sub(g.origin_y_mm)?,
+            );
+            let (column, row) = (divider.fast_floor(x)?, divider.fast_floor(y)?);
+            let inside = (column as u32) < W as u32 && (row as u32) < H as u32;
+            if !inside || g.cell_mm >= SHORT_WALK_MM as i32 {
+                return None;
+            }
+            let (left, down) = (x - column * g.cell_mm, y - row * g.cell_mm);
+            Some(OriginCell {
+                x,
+                y,
+                column,
+                row,
+                right: g.cell_mm - left,
+                left,
+                up: g.cell_mm - down,
+                down,
+            })
+        })();
+        BeamOrigin { map_mm: from, cell }
+    }
+
+    /// [`GridMap::insert_beam`] for a beam from `start`: its free cells end `free`
+    /// millimetres away (`dx`, `dy`), and it stopped `to` away.
+    ///
+    /// Never inlined, with `free_ray` inlined into it: a beam's set-up then has a frame of
+    /// its own, not the caller's crowded one, where its values would go through the stack
+    /// on the Cortex-M0+.
+    #[inline(never)]
+    pub fn insert_ray(
+        &mut self,
+        start: &BeamOrigin,
+        free: (i32, i32),
+        to: (i32, i32),
+        hit: bool,
+    ) -> u32 {
+        let short = |d: (i32, i32)| {
+            let limit = SHORT_WALK_MM as u32;
+            d.0.unsigned_abs() < limit && d.1.unsigned_abs() < limit
+        };
+        let Some(o) = start.cell.as_ref().filter(|_| short(free) && short(to)) else {
+            return self.insert_beam_any_along(start.map_mm, free, to, hit);
+        };
+        // Both under 2^15 from the grid's corner: the sums cannot overflow.
+        let end = (o.x + free.0, o.y + free.1);
+        let stop = (o.x + to.0, o.y + to.1);
+        let divider = &self.divider;
+        let cell_of = |p: (i32, i32)| Some((divider.fast_floor(p.0)?, divider.fast_floor(p.1)?));
+        let inside = |(c, r): (i32, i32)| (c as u32) < W as u32 && (r as u32) < H as u32;
+        let (Some(end_cell), Some(hit_cell)) = (cell_of(end).filter(|&c| inside(c)), cell_of(stop))
+        else {
+            return self.insert_beam_any_along(start.map_mm, free, to, hit);
+        };
+        let spared = hit.then_some(hit_cell);
+        let Some(mut written) = self.free_ray(o, end, end_cell, spared) else {
+            return self.insert_beam_any_along(start.map_mm, free, to, hit);
+        };
+        if hit && self.add(hit_cell.0, hit_cell.1, self.evidence.hit) {
+            written += 1;
+        }
+        written
+    }
+
+    /// [`GridMap::insert_beam_any`] with the ends given from `from`.
+    #[cold]
+    #[inline(never)]
+    fn insert_beam_any_along(
+        &mut self,
+        from: (i32, i32),
+        free: (i32, i32),
+        to: (i32, i32),
+        hit: bool,
+    ) -> u32 {
+        let at = |d: (i32, i32)| (from.0.wrapping_add(d.0), from.1.wrapping_add(d.1));
+        self.insert_beam_any(from, at(free), at(to), hit)
+    }
+
+    /// [`GridMap::insert_beam`] the general way, for any segment in or out of the grid.
+    /// Kept out of line (and cold), so the beams' own path stays small enough for the
+    /// Cortex-M0+'s registers.
+    #[cold]
+    #[inline(never)]
+    fn insert_beam_any(
+        &mut self,
+        from: (i32, i32),
+        free_end: (i32, i32),
+        to: (i32, i32),
+        hit: bool,
+    ) -> u32 {
+        let hit_cell = self.divider.cell_of(&self.geometry, to);
+        let spared = hit.then_some(hit_cell);
+        let mut written =
+            match CellWalk::with_divider(&self.geometry, &self.divider, from, free_end) {
+                CellWalk::Short(walk) => self.mark_free(walk, spared),
+                CellWalk::Long(walk) => self.mark_free(walk, spared),
+            };
+        if hit && self.add(hit_cell.0, hit_cell.1, self.evidence.hit) {
+            written += 1;
+        }
+        written
+    }
+}
+
+/// Where a scan's beams start, worked out once for all of them: the sensor's cell and its
+/// distances to that cell's sides.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct BeamOrigin {
+    /// The sensor's position, map millimetres.
+    map_mm: (i32, i32),
+    /// The sensor's cell, when it is in the grid and its beams can take the short way.
+    cell: Option<OriginCell>,
+}
+
+/// The cell a beam starts in, and where in it.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+struct OriginCell {
+    /// Millimetres from the grid's corner.
+    x: i32,
+    y: i32,
+    column: i32,
+    row: i32,
+    /// Millimetres to the cell's sides: towards +x, -x, +y and -y.
+    right: i32,
+    left: i32,
+    up: i32,
+    down: i32,
+}
+
+/// What a beam passing through does to a cell, for [`GridMap::free_walk`].
+///
+/// Cells never exceed the clamp, so a negative miss needs only the floor.
+trait Miss: Copy {
+    /// The cell after one more beam passed through it.
+    fn apply(self, cell: LogOdds) -> LogOdds;
+}
+
+/// The seed's evidence, as constants: the Cortex-M0+ then keeps them in its instructions,
+/// not in two of its eight registers.
+#[derive(Clone, Copy)]
+struct SeedMiss;
+
+impl Miss for SeedMiss {
+    #[inline(always)]
+    fn apply(self, cell: LogOdds) -> LogOdds {
+        const MISS: i32 = Evidence::SEED.miss as i32;
+        const FLOOR: i32 = -(Evidence::SEED.clamp as i32);
+        (i32::from(cell) + MISS).max(FLOOR) as LogOdds
+    }
+}
+
+/// Any other evidence with a negative miss.
+#[derive(Clone, Copy)]
+struct AnyMiss {
+    miss: i32,
+    floor: i32,
+}
+
+impl Miss for AnyMiss {
+    #[inline(always)]
+    fn apply(self, cell: LogOdds) -> LogOdds {
+        (i32::from(cell) + self.miss).max(self.floor) as LogOdds
+    }
+}
+
+/// A 32-bit walk's difference rule, as [`GridMap::free_walk`] takes it.
+#[derive(Clone, Copy)]
+struct Steps {
+    diff: i32,
+    delta_column: i32,
+    delta_row: i32,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::GridMap;
+    use crate::grid::TEST_GEOMETRY as GEO;
+
+    /// Writes one beam three times into a fresh grid by `insert_beam` and into another
+    /// by the plain iterator, cell by cell, and checks counts and cells agree.
+    fn assert_beam_as_plain(from: (i32, i32), free_end: (i32, i32), to: (i32, i32), hit: bool) {
+        let mut fast: GridMap<46, 46> = GridMap::new(GEO, Evidence::SEED);
+        let mut plain: GridMap<46, 46> = GridMap::new(GEO, Evidence::SEED);
+        for _ in 0..3 {
+            let n = fast.insert_beam(from, free_end, to, hit);
+            let hit_cell = GEO.cell_of(to.0, to.1);
+            let mut m = 0;
+            for (c, r) in CellWalk::new(&GEO, from, free_end) {
+                if !(hit && (c, r) == hit_cell) && plain.add(c, r, Evidence::SEED.miss) {
+                    m += 1;
+                }
+            }
+            if hit && plain.add(hit_cell.0, hit_cell.1, Evidence::SEED.hit) {
+                m += 1;
+            }
+            assert_eq!(n, m, "{from:?} -> {free_end:?} / {to:?}");
+        }
+        assert_eq!(
+            fast.rows(),
+            plain.rows(),
+            "{from:?} -> {free_end:?} / {to:?}"
+        );
+    }
+
+    #[test]
+    fn beams_write_exactly_the_cells_their_walk_visits() {
+        // The specialised loops against the plain one: every walk cell free (bar the hit
+        // cell), in or partly out of the grid, from a fixed pseudo-random sequence.
+        let mut rng = crate::lcg::Lcg::new(0x9e37_79b9_7f4a_7c15_u64);
+        let mut next = |span: i32| rng.within(i64::from(span)) as i32;
+        for _ in 0..3_000 {
+            let from = (next(1_400) + 850, next(1_400) + 850);
+            let to = (from.0 + next(2_500), from.1 + next(2_500));
+            // A hit cell anywhere near the end, on the walk or off it.
+            let free_end = (to.0 - next(60), to.1 - next(60));
+            assert_beam_as_plain(from, free_end, to, next(1) >= 0);
+            // As a beam casts it: the free end a cell short along the same ray.
+            let (dx, dy) = (to.0 - from.0, to.1 - from.1);
+            let length = (((dx as i64).pow(2) + (dy as i64).pow(2)) as f64)
+                .sqrt()
+                .max(1.0);
+            let short = |d: i32| d - (d as f64 * 50.0 / length) as i32;
+            let free_end = (from.0 + short(dx), from.1 + short(dy));
+            assert_beam_as_plain(from, free_end, to, next(1) >= 0);
+        }
+    }
+
+    #[test]
+    fn walks_ending_on_a_cell_corner_end_in_their_own_cell() {
+        // Every direction into and along corners (multiples of 50 mm from the grid's
+        // corner), where only counting boundaries per axis tells the last step.
+        for from in [(712, 533), (700, 500), (688, 450), (650, 517)] {
+            for x in (400..=1000).step_by(50) {
+                for y in (200..=800).step_by(50) {
+                    for hit in [false, true] {
+                        assert_beam_as_plain(from, (x, y), (x, y), hit);
+                        assert_beam_as_plain(from, (x, y), (2 * x - from.0, 2 * y - from.1), hit);
+                    }
+                }
+            }
+            // From a corner or a side at exactly 45 degrees, where two boundaries meet
+            // before the first of the other axis.
+            for d in 1..400 {
+                for (sx, sy) in [(1, 1), (1, -1), (-1, 1), (-1, -1)] {
+                    let to = (from.0 + sx * d, from.1 + sy * d);
+                    assert_beam_as_plain(from, to, to, false);
+                    let to = (from.0 + sx * d, from.1 + sy * (d + 1));
+                    assert_beam_as_plain(from, to, to, true);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn beam_marks_free_then_hit_and_clips() {
+        let mut g: GridMap<46, 46> = GridMap::new(GEO, Evidence::SEED);
+        // From (700, 500) straight up to the far wall at 2000 mm.
+        let n = g.insert_beam((700, 500), (700, 1950), (700, 2000), true);
+        let (c, r) = GEO.cell_of(700, 2000);
+        assert_eq!(g.log_odds(c, r), Some(218));
+        assert_eq!(g.log_odds(c, r - 1), Some(-102));
+        assert_eq!(n, 31);
+        // A beam leaving the grid entirely is clipped, not a panic.
+        let n = g.insert_beam((700, 500), (700, 90_000), (700, 100_000), true);
+        assert!(n > 0 && n < 60);
+    }
+}
