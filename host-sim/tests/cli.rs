@@ -107,6 +107,60 @@ fn bad_arguments_are_refused() {
 }
 
 #[test]
+fn every_subcommand_has_help() {
+    for args in [
+        vec!["--help"],
+        vec!["run", "--help"],
+        vec!["view", "--help"],
+        vec!["serve", "--help"],
+        vec!["bench", "--help"],
+        vec!["help", "run"],
+    ] {
+        let out = host_sim(&args);
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert_eq!(out.status.code(), Some(0), "{args:?}: {text}");
+        assert!(text.contains("Usage: host-sim"), "{args:?}: {text}");
+    }
+    // The defaults are the ones the README and the firmware assume.
+    let view = host_sim(&["view", "--help"]);
+    let text = String::from_utf8_lossy(&view.stdout);
+    assert!(text.contains("[default: 921600]"), "{text}");
+    let run = host_sim(&["run", "--help"]);
+    let text = String::from_utf8_lossy(&run.stdout);
+    assert!(text.contains("[default: tags]"), "{text}");
+}
+
+#[test]
+fn an_unknown_subcommand_is_named() {
+    let out = host_sim(&["frobnicate"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("frobnicate"), "{err}");
+}
+
+#[test]
+fn an_unknown_option_is_named() {
+    for sub in ["run", "view", "serve", "bench"] {
+        let out = host_sim(&[sub, "x.toml", "--frobnicate"]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{sub}: {err}");
+        assert!(err.contains("--frobnicate"), "{sub}: {err}");
+    }
+    // A bad value names its option and the value.
+    let out = host_sim(&["run", "x.toml", "--pose", "sideways"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--pose") && err.contains("sideways"), "{err}");
+    for bad in ["0", "-5", "nan", "inf"] {
+        let out = host_sim(&["view", "x.bin", "--seconds", bad]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{bad}: {err}");
+        assert!(err.contains("--seconds"), "{bad}: {err}");
+    }
+    let out = host_sim(&["view", "x.bin", "--baud", "0"]);
+    assert_eq!(out.status.code(), Some(2));
+}
+
+#[test]
 fn missing_field_is_named() {
     refused(
         "missing.toml",
