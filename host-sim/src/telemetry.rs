@@ -19,8 +19,8 @@ use crate::truth::{route_start_s, truth_at, TruthSample};
 use crate::world::World;
 use serde::Serialize;
 use slam_core::telemetry::{
-    encode, DecoderStats, FirmwareVersion, Hello, MapRows, Message, Schedule, SensorHealth,
-    StreamDecoder, Streamer, Tick, MAX_FRAME_LEN,
+    encode, CellScale, DecoderStats, FirmwareVersion, Hello, MapRows, Message, Schedule,
+    SensorHealth, StreamDecoder, Streamer, Tick, MAX_FRAME_LEN,
 };
 use slam_core::{Counters, FixOutcome, GridGeometry, GridMap, Occupancy, StepReport};
 use std::fmt;
@@ -111,16 +111,28 @@ fn push(bytes: &mut Vec<u8>, errors: &mut u32, message: &Message) {
     }
 }
 
+/// The most columns or rows a stream's `Hello` may declare. The largest grid the core is
+/// built with is 206 x 206 (`room-10m`), the firmware's is smaller; the margin leaves room
+/// for bigger builds while a 1024 x 1024 map stays a 1 MB buffer. A `Hello` past it (a
+/// corrupted or hostile stream: 65535 x 65535 would be 4 GB) is refused and counted.
+pub const MAX_GRID_SIDE: u16 = 1024;
+
 /// Builds a run's record from a robot's messages.
 #[derive(Clone, Debug, Default)]
 pub struct TelemetryRecorder {
     hello: Option<Hello>,
     /// The latest cell bytes, `width * height`, row-major from the lowest row.
     cells: Vec<i8>,
+    /// How many of `cells` the latest `Hello`'s scale calls free or occupied, kept up to
+    /// date chunk by chunk so that a tick costs what it changed, not the whole map.
+    known_cells: usize,
     ticks: Vec<TickRecord>,
     last_tick: Option<Tick>,
     health: Option<SensorHealth>,
     hellos: u32,
+    /// `Hello`s refused (see [`MAX_GRID_SIDE`]), and what was wrong with the last.
+    hellos_refused: u32,
+    last_refused: Option<String>,
     map_rows: u32,
     map_rows_refused: u32,
     restarts: u32,
@@ -162,6 +174,12 @@ impl TelemetryRecorder {
 
     fn take_hello(&mut self, h: &Hello) {
         self.hellos += 1;
+        if let Some(problem) = grid_problem(h) {
+            // Keep the grid there is (if any): its chunks may still come.
+            self.hellos_refused += 1;
+            self.last_refused = Some(problem);
+            return;
+        }
         let same_grid = self.hello.is_some_and(|old| {
             (
                 old.width,
@@ -175,7 +193,13 @@ impl TelemetryRecorder {
             // A new grid (or the first): start its map empty.
             self.cells = vec![0; usize::from(h.width) * usize::from(h.height)];
         }
+        let same_scale = self.hello.is_some_and(|old| old.scale() == h.scale());
         self.hello = Some(*h);
+        if !(same_grid && same_scale) {
+            // New thresholds classify every cell anew: once per such Hello.
+            let scale = h.scale();
+            self.known_cells = self.cells.iter().filter(|&&c| known(scale, c)).count();
+        }
     }
 
     fn take_tick(&mut self, t: &Tick) {
@@ -185,14 +209,8 @@ impl TelemetryRecorder {
         }
         let pose = t.pose();
         let known_pct = match self.hello {
-            Some(h) if !self.cells.is_empty() => {
-                let scale = h.scale();
-                let known = self
-                    .cells
-                    .iter()
-                    .filter(|&&c| scale.belief(c) != Occupancy::Unknown)
-                    .count();
-                100.0 * known as f64 / self.cells.len() as f64
+            Some(_) if !self.cells.is_empty() => {
+                100.0 * self.known_cells as f64 / self.cells.len() as f64
             }
             _ => f64::NAN,
         };
@@ -227,6 +245,10 @@ impl TelemetryRecorder {
             .and_then(|end| self.cells.get_mut(start..end));
         match slot {
             Some(slot) if usize::from(r.first_column) < width => {
+                let scale = h.scale();
+                let was = slot.iter().filter(|&&c| known(scale, c)).count();
+                let now = cells.iter().filter(|&&c| known(scale, c)).count();
+                self.known_cells = self.known_cells - was + now;
                 slot.copy_from_slice(cells);
                 self.map_rows += 1;
             }
@@ -234,9 +256,14 @@ impl TelemetryRecorder {
         }
     }
 
-    /// The latest `Hello`, if one came.
+    /// The latest `Hello` taken, if one came.
     pub fn hello(&self) -> Option<&Hello> {
         self.hello.as_ref()
+    }
+
+    /// `Hello`s refused because their grid is impossible or past [`MAX_GRID_SIDE`].
+    pub fn hellos_refused(&self) -> u32 {
+        self.hellos_refused
     }
 
     /// The last `Tick` received.
@@ -354,6 +381,10 @@ impl TelemetryRecorder {
                 route_start_s: route_start_s(truth),
             }),
             hellos: self.hellos,
+            hellos_refused: self.last_refused.clone().map(|last| RefusedHellos {
+                count: self.hellos_refused,
+                last,
+            }),
             map_rows: self.map_rows,
             map_rows_refused: self.map_rows_refused,
             restarts: self.restarts,
@@ -369,6 +400,34 @@ impl TelemetryRecorder {
             },
         }
     }
+}
+
+/// Whether a cell byte is a firm belief under `scale`.
+fn known(scale: CellScale, cell: i8) -> bool {
+    scale.belief(cell) != Occupancy::Unknown
+}
+
+/// What is wrong with the grid a `Hello` declares, if anything.
+fn grid_problem(h: &Hello) -> Option<String> {
+    if h.width == 0 || h.height == 0 || h.width > MAX_GRID_SIDE || h.height > MAX_GRID_SIDE {
+        Some(format!(
+            "a {} x {} grid (at most {MAX_GRID_SIDE} x {MAX_GRID_SIDE} is taken)",
+            h.width, h.height
+        ))
+    } else if h.cell_mm < 1 {
+        Some(format!("{} mm cells (at least 1 mm)", h.cell_mm))
+    } else {
+        None
+    }
+}
+
+/// `Hello`s the viewer refused.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub struct RefusedHellos {
+    /// How many.
+    pub count: u32,
+    /// What the last one declared that could not be taken.
+    pub last: String,
 }
 
 /// The pose in the last tick received.
@@ -435,6 +494,8 @@ pub struct Summary {
     pub truth: Option<TruthFigures>,
     /// `Hello`s received.
     pub hellos: u32,
+    /// `Hello`s refused, with the reason for the last; `None` when all were taken.
+    pub hellos_refused: Option<RefusedHellos>,
     /// Map chunks placed.
     pub map_rows: u32,
     /// Map chunks refused: before any `Hello`, or outside the grid.
@@ -526,6 +587,13 @@ impl fmt::Display for Summary {
                 h.watchdog_feeds
             )?,
             None => writeln!(f, "health: none received")?,
+        }
+        if let Some(r) = &self.hellos_refused {
+            writeln!(
+                f,
+                "Hellos refused: {} (the last declared {}); their map is not drawn",
+                r.count, r.last
+            )?;
         }
         let b = &self.bad_frames;
         write!(
