@@ -73,7 +73,7 @@ fn cmd_run(args: RunArgs) -> Result<(), Failure> {
     let seed = args.seed.unwrap_or(scenario.seed);
     let mut writer = args.telemetry.as_ref().map(|_| TelemetryWriter::new());
     let output = run_with_telemetry(&scenario, args.pose, seed, writer.as_mut())
-        .map_err(|e| Failure(2, e.to_string()))?;
+        .map_err(|e| Failure(2, format!("{}: {e}", args.scenario.display())))?;
     if let (Some(path), Some(writer)) = (&args.telemetry, &writer) {
         std::fs::write(path, writer.bytes())
             .map_err(|e| Failure(1, format!("cannot write {}: {e}", path.display())))?;
@@ -237,6 +237,12 @@ fn print_summary(name: &str, mode: PoseMode, seed: u64, f: &Figures) {
         f.final_error_cm,
         f.final_heading_error_deg
     );
+    if let Some(t) = f.route_cut_at_s {
+        say!(
+            "the route was cut at {t:.1} s, before its end: a run lasts at most {} s",
+            host_sim::run::MAX_RUN_S
+        );
+    }
 }
 
 /// The simulator as the emulated robot's world: see `host_sim::serve`.
@@ -257,7 +263,7 @@ fn cmd_bench(args: BenchArgs) -> Result<(), Failure> {
     let mut frames = Vec::new();
     for i in 0..runs {
         let output = run(&scenario, PoseMode::Tags, scenario.seed + i)
-            .map_err(|e| Failure(2, e.to_string()))?;
+            .map_err(|e| Failure(2, format!("{}: {e}", args.scenario.display())))?;
         simulated_s += output.figures.duration_s;
         frames = output.frames;
     }
@@ -271,8 +277,10 @@ fn cmd_bench(args: BenchArgs) -> Result<(), Failure> {
         heading_deg: scenario.start.heading_deg,
     });
     let replays = 200;
-    let mut slam =
-        Box::new(SeedSlam::new(config, start).map_err(|e| Failure(2, format!("{e:?}")))?);
+    let mut slam = Box::new(SeedSlam::new(config, start).map_err(|e| {
+        let e = host_sim::run::RunError::Config(e);
+        Failure(2, format!("{}: {e}", args.scenario.display()))
+    })?);
     let started = Instant::now();
     let mut fixes = 0;
     for _ in 0..replays {

@@ -1,6 +1,8 @@
 //! `host-sim view` on streams that lie about their grid: refused fast, in bounded memory,
 //! and a long run costs each tick only what it changed.
 
+// Only `host_sim` is used here; the other helpers serve the other test files.
+#[allow(dead_code)]
 mod common;
 
 use common::host_sim;
