@@ -375,7 +375,11 @@ impl TelemetryRecorder {
             known_pct: map.known_pct(),
             out_of_place: self.world.as_ref().map(|_| map.out_of_place),
             truth: self.truth.as_ref().map(|truth| TruthFigures {
-                errors: pose_errors(&self.ticks),
+                errors: self
+                    .ticks
+                    .iter()
+                    .any(|t| t.error_cm.is_finite())
+                    .then(|| pose_errors(&self.ticks)),
                 truth_samples: truth.len(),
                 ticks_without_truth: self.ticks_without_truth,
                 route_start_s: route_start_s(truth),
@@ -511,9 +515,10 @@ pub struct Summary {
 /// A telemetry run's pose against the truth.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct TruthFigures {
-    /// The figures `host-sim run` reports, under the same names.
-    #[serde(flatten)]
-    pub errors: PoseErrors,
+    /// The figures `host-sim run` reports, under the same names; `None` (each `null` in
+    /// JSON) when no tick had a truth sample near its time, so there was nothing to score.
+    #[serde(flatten, serialize_with = "errors_or_nulls")]
+    pub errors: Option<PoseErrors>,
     /// Truth samples given.
     pub truth_samples: usize,
     /// Ticks with no truth sample near their time: left out of the errors.
@@ -521,6 +526,34 @@ pub struct TruthFigures {
     /// The last time the robot stood where it started, seconds (see
     /// [`crate::truth::route_start_s`]): subtract it from a time to compare with `run`'s.
     pub route_start_s: Option<f64>,
+}
+
+/// The keys of [`PoseErrors`], for [`errors_or_nulls`].
+const POSE_ERROR_KEYS: [&str; 5] = [
+    "final_error_cm",
+    "max_error_after_first_fix_cm",
+    "final_heading_error_deg",
+    "max_heading_error_after_first_fix_deg",
+    "max_error_cm",
+];
+
+/// The errors' keys with their values, or each with `null`: a reader finds the key
+/// either way, and never a 0 that was not measured.
+fn errors_or_nulls<S: serde::Serializer>(
+    errors: &Option<PoseErrors>,
+    s: S,
+) -> Result<S::Ok, S::Error> {
+    use serde::ser::SerializeMap;
+    match errors {
+        Some(e) => e.serialize(s),
+        None => {
+            let mut map = s.serialize_map(Some(POSE_ERROR_KEYS.len()))?;
+            for key in POSE_ERROR_KEYS {
+                map.serialize_entry(key, &None::<f64>)?;
+            }
+            map.end()
+        }
+    }
 }
 
 impl fmt::Display for Summary {
@@ -557,17 +590,23 @@ impl fmt::Display for Summary {
             None => writeln!(f)?,
         }
         if let Some(t) = self.truth {
-            let e = t.errors;
             let start = t.route_start_s.map_or("never moved".to_string(), |s| {
                 format!("moved after {s:.1} s")
             });
-            writeln!(
-                f,
-                "against the truth ({} samples, {} ticks without one; {start}): after the first fix error <= {:.1} cm, heading <= {:.1} deg; final error {:.1} cm, heading {:.1} deg; max error {:.1} cm",
-                t.truth_samples, t.ticks_without_truth, e.max_error_after_first_fix_cm,
-                e.max_heading_error_after_first_fix_deg, e.final_error_cm,
-                e.final_heading_error_deg, e.max_error_cm
-            )?;
+            match t.errors {
+                Some(e) => writeln!(
+                    f,
+                    "against the truth ({} samples, {} ticks without one; {start}): after the first fix error <= {:.1} cm, heading <= {:.1} deg; final error {:.1} cm, heading {:.1} deg; max error {:.1} cm",
+                    t.truth_samples, t.ticks_without_truth, e.max_error_after_first_fix_cm,
+                    e.max_heading_error_after_first_fix_deg, e.final_error_cm,
+                    e.final_heading_error_deg, e.max_error_cm
+                )?,
+                None => writeln!(
+                    f,
+                    "against the truth ({} samples, {} ticks without one): no tick has a truth sample near its time, so there is nothing to score against",
+                    t.truth_samples, t.ticks_without_truth
+                )?,
+            }
         }
         if let Some(c) = self.counters {
             writeln!(

@@ -1,11 +1,12 @@
-//! `host-sim view` on streams that lie about their grid: refused fast, in bounded memory,
-//! and a long run costs each tick only what it changed.
+//! `host-sim view` on input that lies or does not match: a stream that claims an
+//! impossible grid is refused fast, in bounded memory, a long run costs each tick only
+//! what it changed, and a truth that matches no tick scores nothing.
 
-// Only `host_sim` is used here; the other helpers serve the other test files.
+// `SCORED_FIGURES` serves the other test files.
 #[allow(dead_code)]
 mod common;
 
-use common::host_sim;
+use common::{host_sim, seed_path};
 use host_sim::telemetry::{decode_bytes, TelemetryRecorder, MAX_GRID_SIDE};
 use slam_core::telemetry::{
     encode, CellChunk, FirmwareVersion, Hello, MapRows, Message, Tick, MAX_FRAME_LEN,
@@ -183,4 +184,67 @@ fn the_known_share_follows_the_chunks_without_rescanning_the_map() {
         .map_or(f64::NAN, |t| t.known_pct);
     let want = 100.0 * (1024.0 * 64.0) / (1024.0 * 1024.0);
     assert!((last - want).abs() < 1e-9, "{last} vs {want}");
+}
+
+#[test]
+fn a_truth_that_matches_no_tick_scores_nothing() {
+    let stream = scratch("seed.bin", b"");
+    let out = host_sim(&[
+        "run",
+        seed_path().to_str().unwrap_or_default(),
+        "--telemetry",
+        stream.to_str().unwrap_or_default(),
+        "--json",
+    ]);
+    assert_eq!(out.status.code(), Some(0));
+    let sample =
+        |t_s: f64| format!("{{\"t_s\":{t_s},\"x_mm\":700,\"y_mm\":500,\"heading_deg\":0}}\n");
+    let view = |truth: &std::path::Path, json: bool| {
+        let mut args = vec![
+            "view",
+            stream.to_str().unwrap_or_default(),
+            "--truth",
+            truth.to_str().unwrap_or_default(),
+        ];
+        if json {
+            args.push("--json");
+        }
+        let out = host_sim(&args);
+        assert_eq!(
+            out.status.code(),
+            Some(0),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    // Long after the run ends: no tick has a sample near it.
+    let late = scratch("late.jsonl", (sample(5000.0) + &sample(5000.1)).as_bytes());
+    let text = view(&late, false);
+    assert!(text.contains("nothing to score against"), "{text}");
+    assert!(!text.contains("final error 0.0 cm"), "{text}");
+    let json: serde_json::Value = serde_json::from_str(&view(&late, true)).unwrap_or_default();
+    assert_eq!(json["truth_samples"].as_u64(), Some(2), "{json}");
+    for key in [
+        "final_error_cm",
+        "max_error_after_first_fix_cm",
+        "final_heading_error_deg",
+        "max_heading_error_after_first_fix_deg",
+        "max_error_cm",
+    ] {
+        assert!(
+            json.get(key).is_some_and(serde_json::Value::is_null),
+            "{key} must be there and null: {json}"
+        );
+    }
+    // A matching sample scores, under the same keys.
+    let early = scratch("early.jsonl", (sample(0.0) + &sample(0.1)).as_bytes());
+    let scored: serde_json::Value = serde_json::from_str(&view(&early, true)).unwrap_or_default();
+    let keys = |v: &serde_json::Value| {
+        v.as_object()
+            .map(|o| o.keys().cloned().collect::<Vec<_>>())
+            .unwrap_or_default()
+    };
+    assert_eq!(keys(&scored), keys(&json));
+    assert!(scored["final_error_cm"].is_f64(), "{scored}");
 }
