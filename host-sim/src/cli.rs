@@ -13,8 +13,8 @@ use std::path::PathBuf;
 /// (`firmware/src/board.rs`, `TELEMETRY_BAUD`).
 pub const TELEMETRY_BAUD: u32 = 921_600;
 
-/// Longest `view --seconds`, seconds: past this the deadline would overflow `Instant`
-/// on some platforms, and a live view that long is a mistake.
+/// Longest `view --seconds`, seconds (about 32 years): it keeps `Instant::now()` plus the
+/// deadline from overflowing, which would panic.
 const MAX_VIEW_SECONDS: f64 = 1e9;
 
 /// BugBot's simulated mat and robot: run a scenario, watch a robot's telemetry, serve
