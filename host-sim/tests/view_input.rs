@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 
 /// A scratch file holding `bytes`, unique to this test.
 fn scratch(name: &str, bytes: &[u8]) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("host-sim-view-bounds-{}", std::process::id()));
+    let dir = std::env::temp_dir().join(format!("host-sim-view-input-{}", std::process::id()));
     std::fs::create_dir_all(&dir).ok();
     let path = dir.join(name);
     if let Err(e) = std::fs::write(&path, bytes) {
