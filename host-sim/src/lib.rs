@@ -9,22 +9,25 @@
 //!
 //! | table / field | meaning |
 //! |---|---|
-//! | `name`, `seed` | a name for titles; the noise seed (`--seed` overrides) |
-//! | `world.walls` | wall segments `[[x0, y0], [x1, y1]]`: the mat's edges, inner walls, boxes |
+//! | `name`, `seed` | a name for titles and the pictures' file names (letters, digits, `-`, `_`, `.`); the noise seed (`--seed` overrides) |
+//! | `world.walls` | wall segments `[[x0, y0], [x1, y1]]`: the mat's edges, inner walls, boxes; with the tags and the start, on the grid (from its origin up and right) |
 //! | `world.wall_tolerance_mm` | an occupied cell whose centre is this close to a wall is in place |
 //! | `[[world.tags]]` `id`, `x_mm`, `y_mm`, `width_mm`, `facing_deg` | an AprilTag card: the depth sensor sees the card, the camera reads the face |
-//! | `start` `x_mm`, `y_mm`, `heading_deg` | the true start; the core starts believing it |
+//! | `start` `x_mm`, `y_mm`, `heading_deg` | the true start, clear of every wall by `wall_tolerance_mm`; the core starts believing it |
 //! | `robot` `max_wheel_speed_mm_s`, `wheel_base_mm` | the differential drive, when the firmware commands the motors |
 //! | `sensors.tof` `fov_deg`, `max_range_mm`, `noise_mm`, `dropout` | 8 beams at the centres of 8 equal zones; zones with no return |
 //! | `sensors.flow` `um_per_count`, `scale_error`, `noise_counts`, `quality` | flow counts at 100 Hz; the firmware's calibration, the true scale error, noise per reading, surface quality |
 //! | `sensors.gyro` `bias_dps`, `scale_error`, `noise_dps` | yaw rate at 200 Hz: residual bias, scale error, noise per sample |
 //! | `sensors.camera` `width_px`, `focal_px`, `fov_deg`, `max_range_mm`, `max_incidence_deg`, `pixel_noise_px`, `distance_noise_mm` | tag detections; tags hidden by walls or seen too obliquely are not read |
 //! | `sensors.camera` `latency_ms` (optional, 0 when absent) | the tags are read from where the robot was this long before the tick, and the frame says how old they are |
-//! | `grid` `cell_mm`, `origin_x_mm`, `origin_y_mm`, `max_range_mm` | the core's grid and the mapper's range limit |
+//! | `grid` `cell_mm`, `origin_x_mm`, `origin_y_mm`, `max_range_mm` | the core's grid (the smallest built-in size that holds the world: 46 x 46 or 206 x 206) and the mapper's range limit |
 //! | `[[route]]` `action = "turn"`, `degrees`, `rate_dps` | turn on the spot until the true heading has turned that far |
 //! | `[[route]]` `action = "drive"`, `seconds`, `speed_mm_s` | drive straight for `int(seconds * 10)` ticks |
 //! | `[[route]]` `action = "drive_distance"`, `distance_mm`, `speed_mm_s` | drive straight until that far by truth |
 //! | `[[route]]` `action = "wait"`, `seconds` | stand still |
+//!
+//! The whole route may last at most an hour of simulated time (`run::MAX_RUN_S`): a longer
+//! one is refused before the run.
 //!
 //! A bad value (missing, wrong type, NaN, negative, absurd) is refused with an error that
 //! names the field.

@@ -1,10 +1,7 @@
-//! `host-sim`: run a scenario and print its figures, or benchmark the simulator and the core.
+//! `host-sim`: run a scenario and print its figures, watch a robot's telemetry, serve the
+//! emulator, or benchmark the simulator and the core. `host-sim --help` and
+//! `host-sim SUBCOMMAND --help` list the options (see `cli.rs`).
 //!
-//! ```text
-//! host-sim run <scenario.toml> [--pose truth|dead-reckoning|tags] [--seed N] [--json] [--out DIR] [--telemetry FILE]
-//! host-sim view <FILE | serial device> [--out DIR] [--baud N] [--seconds N] [--json] [--truth FILE] [--scenario FILE]
-//! host-sim bench [<scenario.toml>]
-//! ```
 //! `run --telemetry FILE` also writes the telemetry stream the robot would send on that
 //! run; `view` decodes such a stream, from a file or live from the robot's serial port
 //! (until end of file, Ctrl-C or `--seconds`), prints what it held and draws the same two
@@ -16,6 +13,10 @@
 //! Exit codes: 0 done, 1 the pictures or the stream could not be written, 2 bad
 //! arguments, scenario or stream.
 
+mod cli;
+
+use clap::Parser;
+use cli::{BenchArgs, Cli, Command, RunArgs, ServeArgs, ViewArgs};
 use host_sim::run::{run, run_with_telemetry, Figures, PoseMode};
 use host_sim::telemetry::{Recording, TelemetryWriter};
 use host_sim::truth::{parse_truth, TruthSample};
@@ -26,13 +27,6 @@ use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
-
-const USAGE: &str = "usage:
-  host-sim run <scenario.toml> [--pose truth|dead-reckoning|tags] [--seed N] [--json] [--out DIR] [--telemetry FILE]
-  host-sim view <FILE | serial device> [--out DIR] [--baud N] [--seconds N] [--json]
-                [--truth TRUTH.jsonl] [--scenario SCENARIO.toml]
-  host-sim serve <scenario.toml> [--seed N]     (JSON lines on stdin/stdout, for the emulator)
-  host-sim bench [<scenario.toml>]";
 
 /// `println!` that does not panic when stdout is gone (a closed pipe): output is best effort,
 /// the exit code still tells.
@@ -47,17 +41,19 @@ macro_rules! say {
 struct Failure(u8, String);
 
 fn main() -> ExitCode {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let result = match args.first().map(String::as_str) {
-        Some("run") => cmd_run(&args[1..]),
-        Some("view") => cmd_view(&args[1..]),
-        Some("serve") => cmd_serve(&args[1..]),
-        Some("bench") => cmd_bench(&args[1..]),
-        Some("-h" | "--help") => {
-            say!("{USAGE}");
-            Ok(())
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            // `--help` and `--version` land here too, with exit code 0 and stdout.
+            let _ = e.print();
+            return ExitCode::from(u8::try_from(e.exit_code()).unwrap_or(2));
         }
-        _ => Err(Failure(2, USAGE.to_string())),
+    };
+    let result = match cli.command {
+        Command::Run(args) => cmd_run(args),
+        Command::View(args) => cmd_view(args),
+        Command::Serve(args) => cmd_serve(args),
+        Command::Bench(args) => cmd_bench(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -68,65 +64,16 @@ fn main() -> ExitCode {
     }
 }
 
-struct RunArgs {
-    scenario: PathBuf,
-    pose: PoseMode,
-    seed: Option<u64>,
-    json: bool,
-    out: Option<PathBuf>,
-    telemetry: Option<PathBuf>,
-}
-
-fn parse_run_args(args: &[String]) -> Result<RunArgs, Failure> {
-    let bad = |m: String| Failure(2, format!("{m}\n{USAGE}"));
-    let mut it = args.iter();
-    let mut parsed = RunArgs {
-        scenario: PathBuf::new(),
-        pose: PoseMode::Tags,
-        seed: None,
-        json: false,
-        out: None,
-        telemetry: None,
-    };
-    let mut scenario = None;
-    while let Some(arg) = it.next() {
-        let mut value = |name: &str| {
-            it.next()
-                .cloned()
-                .ok_or_else(|| bad(format!("{name} needs a value")))
-        };
-        match arg.as_str() {
-            "--pose" => parsed.pose = value("--pose")?.parse().map_err(bad)?,
-            "--seed" => {
-                let v = value("--seed")?;
-                parsed.seed = Some(
-                    v.parse()
-                        .map_err(|_| bad(format!("--seed wants a whole number, got `{v}`")))?,
-                );
-            }
-            "--json" => parsed.json = true,
-            "--out" => parsed.out = Some(PathBuf::from(value("--out")?)),
-            "--telemetry" => parsed.telemetry = Some(PathBuf::from(value("--telemetry")?)),
-            flag if flag.starts_with("--") => return Err(bad(format!("unknown option `{flag}`"))),
-            path if scenario.is_none() => scenario = Some(PathBuf::from(path)),
-            extra => return Err(bad(format!("unexpected argument `{extra}`"))),
-        }
-    }
-    parsed.scenario = scenario.ok_or_else(|| bad("which scenario? give a scenario file".into()))?;
-    Ok(parsed)
-}
-
 fn load(path: &Path) -> Result<Scenario, Failure> {
     Scenario::load(path).map_err(|e| Failure(2, format!("{}: {e}", path.display())))
 }
 
-fn cmd_run(args: &[String]) -> Result<(), Failure> {
-    let args = parse_run_args(args)?;
+fn cmd_run(args: RunArgs) -> Result<(), Failure> {
     let scenario = load(&args.scenario)?;
     let seed = args.seed.unwrap_or(scenario.seed);
     let mut writer = args.telemetry.as_ref().map(|_| TelemetryWriter::new());
     let output = run_with_telemetry(&scenario, args.pose, seed, writer.as_mut())
-        .map_err(|e| Failure(2, e.to_string()))?;
+        .map_err(|e| Failure(2, format!("{}: {e}", args.scenario.display())))?;
     if let (Some(path), Some(writer)) = (&args.telemetry, &writer) {
         std::fs::write(path, writer.bytes())
             .map_err(|e| Failure(1, format!("cannot write {}: {e}", path.display())))?;
@@ -165,67 +112,6 @@ fn write_pictures(
     Ok((map, chart))
 }
 
-struct ViewArgs {
-    source: PathBuf,
-    out: Option<PathBuf>,
-    baud: u32,
-    seconds: Option<f64>,
-    json: bool,
-    truth: Option<PathBuf>,
-    scenario: Option<PathBuf>,
-}
-
-fn parse_view_args(args: &[String]) -> Result<ViewArgs, Failure> {
-    let bad = |m: String| Failure(2, format!("{m}\n{USAGE}"));
-    let mut it = args.iter();
-    let mut parsed = ViewArgs {
-        source: PathBuf::new(),
-        out: None,
-        baud: 115_200,
-        seconds: None,
-        json: false,
-        truth: None,
-        scenario: None,
-    };
-    let mut source = None;
-    while let Some(arg) = it.next() {
-        let mut value = |name: &str| {
-            it.next()
-                .cloned()
-                .ok_or_else(|| bad(format!("{name} needs a value")))
-        };
-        match arg.as_str() {
-            "--out" => parsed.out = Some(PathBuf::from(value("--out")?)),
-            "--baud" => {
-                let v = value("--baud")?;
-                parsed.baud = v.parse().ok().filter(|&b| b > 0).ok_or_else(|| {
-                    bad(format!("--baud wants a positive whole number, got `{v}`"))
-                })?;
-            }
-            "--seconds" => {
-                let v = value("--seconds")?;
-                parsed.seconds = Some(
-                    v.parse::<f64>()
-                        .ok()
-                        .filter(|s| s.is_finite() && *s > 0.0 && *s < 1e9)
-                        .ok_or_else(|| {
-                            bad(format!("--seconds wants a positive number, got `{v}`"))
-                        })?,
-                );
-            }
-            "--json" => parsed.json = true,
-            "--truth" => parsed.truth = Some(PathBuf::from(value("--truth")?)),
-            "--scenario" => parsed.scenario = Some(PathBuf::from(value("--scenario")?)),
-            flag if flag.starts_with("--") => return Err(bad(format!("unknown option `{flag}`"))),
-            path if source.is_none() => source = Some(PathBuf::from(path)),
-            extra => return Err(bad(format!("unexpected argument `{extra}`"))),
-        }
-    }
-    parsed.source = source
-        .ok_or_else(|| bad("which stream? give a telemetry file or a serial device".into()))?;
-    Ok(parsed)
-}
-
 /// Whether `path` names a serial device rather than a recorded file.
 fn is_serial_device(path: &Path) -> bool {
     #[cfg(unix)]
@@ -240,8 +126,7 @@ fn is_serial_device(path: &Path) -> bool {
 }
 
 /// Decodes a telemetry stream, prints what it held and draws its pictures.
-fn cmd_view(args: &[String]) -> Result<(), Failure> {
-    let args = parse_view_args(args)?;
+fn cmd_view(args: ViewArgs) -> Result<(), Failure> {
     let shown = args.source.display().to_string();
     let stop = Arc::new(AtomicBool::new(false));
     let deadline = args
@@ -352,43 +237,33 @@ fn print_summary(name: &str, mode: PoseMode, seed: u64, f: &Figures) {
         f.final_error_cm,
         f.final_heading_error_deg
     );
+    if let Some(t) = f.route_cut_at_s {
+        say!(
+            "the route was cut at {t:.1} s, before its end: a run lasts at most {} s",
+            host_sim::run::MAX_RUN_S
+        );
+    }
 }
 
 /// The simulator as the emulated robot's world: see `host_sim::serve`.
-fn cmd_serve(args: &[String]) -> Result<(), Failure> {
-    let bad = |m: String| Failure(2, format!("{m}\n{USAGE}"));
-    let (path, seed) = match args {
-        [path] => (path, None),
-        [path, flag, n] if flag == "--seed" => (
-            path,
-            Some(
-                n.parse::<u64>()
-                    .map_err(|_| bad(format!("--seed wants a whole number, got `{n}`")))?,
-            ),
-        ),
-        _ => return Err(bad("serve takes a scenario and an optional --seed N".into())),
-    };
-    let scenario = load(Path::new(path))?;
+fn cmd_serve(args: ServeArgs) -> Result<(), Failure> {
+    let scenario = load(&args.scenario)?;
     let stdin = std::io::stdin().lock();
     let stdout = std::io::stdout().lock();
-    host_sim::serve::serve(&scenario, seed.unwrap_or(scenario.seed), stdin, stdout)
+    host_sim::serve::serve(&scenario, args.seed.unwrap_or(scenario.seed), stdin, stdout)
         .map_err(|e| Failure(1, format!("serve: {e}")))
 }
 
 /// Simulated seconds per wall second on the seed route, and host nanoseconds per `step`.
-fn cmd_bench(args: &[String]) -> Result<(), Failure> {
-    let path = args.first().map_or_else(
-        || PathBuf::from("host-sim/scenarios/seed-mat.toml"),
-        PathBuf::from,
-    );
-    let scenario = load(&path)?;
+fn cmd_bench(args: BenchArgs) -> Result<(), Failure> {
+    let scenario = load(&args.scenario)?;
     let runs = 20;
     let started = Instant::now();
     let mut simulated_s = 0.0;
     let mut frames = Vec::new();
     for i in 0..runs {
         let output = run(&scenario, PoseMode::Tags, scenario.seed + i)
-            .map_err(|e| Failure(2, e.to_string()))?;
+            .map_err(|e| Failure(2, format!("{}: {e}", args.scenario.display())))?;
         simulated_s += output.figures.duration_s;
         frames = output.frames;
     }
@@ -402,8 +277,10 @@ fn cmd_bench(args: &[String]) -> Result<(), Failure> {
         heading_deg: scenario.start.heading_deg,
     });
     let replays = 200;
-    let mut slam =
-        Box::new(SeedSlam::new(config, start).map_err(|e| Failure(2, format!("{e:?}")))?);
+    let mut slam = Box::new(SeedSlam::new(config, start).map_err(|e| {
+        let e = host_sim::run::RunError::Config(e);
+        Failure(2, format!("{}: {e}", args.scenario.display()))
+    })?);
     let started = Instant::now();
     let mut fixes = 0;
     for _ in 0..replays {

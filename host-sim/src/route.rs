@@ -6,6 +6,27 @@
 use crate::robot::{wrap_deg, Command, TruePose};
 use crate::scenario::RouteStep;
 
+/// How many ticks of `tick_s` the route takes by its own numbers: a turn at its rate, a
+/// drive or wait for its whole ticks, a distance at its speed, and every step at least
+/// one tick. The run steers by truth, which follows the commands exactly, so this is what
+/// the run takes to within a tick a step.
+pub fn planned_ticks(steps: &[RouteStep], tick_s: f64) -> u64 {
+    let ticks = |x: f64| (x - 1e-9).ceil().max(1.0) as u64;
+    steps
+        .iter()
+        .map(|step| match step {
+            RouteStep::Turn { degrees, rate_dps } => ticks(degrees.abs() / (rate_dps * tick_s)),
+            RouteStep::Drive { seconds, .. } | RouteStep::Wait { seconds } => {
+                (seconds / tick_s + 1e-9).floor().max(1.0) as u64
+            }
+            RouteStep::DriveDistance {
+                distance_mm,
+                speed_mm_s,
+            } => ticks(distance_mm / (speed_mm_s.abs() * tick_s)),
+        })
+        .fold(0, u64::saturating_add)
+}
+
 /// Where the route is.
 pub struct Route {
     steps: Vec<RouteStep>,

@@ -18,8 +18,13 @@ use std::str::FromStr;
 pub const TICK_S: f64 = 0.1;
 /// The flow quality below which the firmware drops a reading.
 pub const MIN_FLOW_QUALITY: u8 = 30;
-/// A route that has not ended after this long is cut off, seconds.
-const MAX_RUN_S: f64 = 3600.0;
+/// The longest run, seconds: a route planned longer is refused before it starts
+/// ([`RunError::RouteTooLong`]), and one that runs past it anyway is cut there and says
+/// so ([`Figures::route_cut_at_s`]).
+pub const MAX_RUN_S: f64 = 3600.0;
+
+/// The grid sizes the core is built with here, smallest first (columns = rows).
+pub const GRID_SIDES: [usize; 2] = [46, 206];
 
 /// Which pose the mapper uses: the only thing that differs between the seed's demos.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -100,17 +105,28 @@ pub struct Figures {
     pub max_heading_error_after_first_fix_deg: f64,
     /// Largest position error over the whole run, centimetres.
     pub max_error_cm: f64,
+    /// When the run reached [`MAX_RUN_S`] before its route ended, the time it was cut
+    /// at, seconds; absent (not even `null`) when the route ran to its end.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub route_cut_at_s: Option<f64>,
 }
 
 /// Why a run could not start.
-#[derive(Debug, PartialEq, Eq)]
+#[derive(Debug, PartialEq)]
 pub enum RunError {
-    /// The scenario's grid does not fit any grid size the core is built with.
+    /// The scenario's world does not fit any grid size the core is built with.
     GridTooLarge {
-        /// Cells needed across.
+        /// Cells needed across, from the grid's origin.
         columns: i64,
-        /// Cells needed up.
+        /// Cells needed up, from the grid's origin.
         rows: i64,
+        /// The field of the point furthest out, e.g. `world.walls[1][1]`.
+        furthest: String,
+    },
+    /// The route would run longer than [`MAX_RUN_S`].
+    RouteTooLong {
+        /// How long the route takes by its own numbers, seconds.
+        planned_s: f64,
     },
     /// The core refused the configuration.
     Config(slam_core::ConfigError),
@@ -119,13 +135,33 @@ pub enum RunError {
 impl fmt::Display for RunError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            RunError::GridTooLarge { columns, rows } => {
+            RunError::GridTooLarge {
+                columns,
+                rows,
+                furthest,
+            } => {
+                let largest = GRID_SIDES[GRID_SIDES.len() - 1];
                 write!(
                     f,
-                    "the world needs a {columns} x {rows} grid; the largest built in is 206 x 206"
+                    "the world needs a {columns} x {rows} grid from grid.origin_x_mm, \
+                     grid.origin_y_mm (reaching {furthest}); the largest built in is \
+                     {largest} x {largest}: raise grid.cell_mm or shrink the world"
                 )
             }
-            RunError::Config(e) => write!(f, "the core refused the configuration: {e:?}"),
+            RunError::RouteTooLong { planned_s } => write!(
+                f,
+                "scenario field `route`: takes about {planned_s:.1} s, longer than a run may \
+                 last ({MAX_RUN_S} s)"
+            ),
+            RunError::Config(e) => {
+                let field = match e {
+                    slam_core::ConfigError::CellSize => " (grid.cell_mm)",
+                    slam_core::ConfigError::FocalLength => " (sensors.camera.focal_px)",
+                    slam_core::ConfigError::MaxRange => " (grid.max_range_mm)",
+                    slam_core::ConfigError::Evidence => "",
+                };
+                write!(f, "the core refused the configuration: {e:?}{field}")
+            }
         }
     }
 }
@@ -185,7 +221,9 @@ pub struct RunOutput {
     pub frames: Vec<SensorFrame>,
 }
 
-/// Runs a scenario to the end of its route.
+/// Runs a scenario to the end of its route. The scenario is taken as checked (as
+/// [`Scenario::load`] and [`Scenario::parse`] give it); the grid and the route's length
+/// are checked here, before the first tick.
 pub fn run(scenario: &Scenario, mode: PoseMode, seed: u64) -> Result<RunOutput, RunError> {
     run_with_telemetry(scenario, mode, seed, None)
 }
@@ -218,21 +256,36 @@ fn run_sized_to_fit(
     tag_age: TagAge,
     telemetry: Option<&mut TelemetryWriter>,
 ) -> Result<RunOutput, RunError> {
-    let cell = scenario.grid.cell_mm.max(1) as f64;
-    let (mut max_x, mut max_y) = (f64::MIN, f64::MIN);
-    for p in scenario.world.walls.iter().flatten() {
-        max_x = max_x.max(p[0]);
-        max_y = max_y.max(p[1]);
+    let planned_s = crate::route::planned_ticks(&scenario.route, TICK_S) as f64 * TICK_S;
+    if planned_s > MAX_RUN_S {
+        return Err(RunError::RouteTooLong { planned_s });
     }
-    // The grid must reach a cell past the furthest wall.
-    let columns = ((max_x - scenario.grid.origin_x_mm as f64) / cell).ceil() as i64 + 1;
-    let rows = ((max_y - scenario.grid.origin_y_mm as f64) / cell).ceil() as i64 + 1;
-    if columns <= 46 && rows <= 46 {
-        run_sized::<46, 46>(scenario, mode, seed, tag_age, telemetry)
-    } else if columns <= 206 && rows <= 206 {
-        run_sized::<206, 206>(scenario, mode, seed, tag_age, telemetry)
+    let cell = scenario.grid.cell_mm.max(1) as f64;
+    // The grid must reach a cell past the furthest wall, tag or start (validation put
+    // them all on the grid's side of its origin).
+    let cells_to = |v: f64, origin: i32| ((v - f64::from(origin)) / cell).ceil() as i64 + 1;
+    let (mut columns, mut rows, mut furthest) = (1, 1, String::new());
+    for (field, p) in scenario.placed_points() {
+        let (c, r) = (
+            cells_to(p.x, scenario.grid.origin_x_mm),
+            cells_to(p.y, scenario.grid.origin_y_mm),
+        );
+        if c.max(r) > columns.max(rows) {
+            furthest = field;
+        }
+        (columns, rows) = (columns.max(c), rows.max(r));
+    }
+    let fits = |side: usize| columns <= side as i64 && rows <= side as i64;
+    if fits(GRID_SIDES[0]) {
+        run_sized::<{ GRID_SIDES[0] }, { GRID_SIDES[0] }>(scenario, mode, seed, tag_age, telemetry)
+    } else if fits(GRID_SIDES[1]) {
+        run_sized::<{ GRID_SIDES[1] }, { GRID_SIDES[1] }>(scenario, mode, seed, tag_age, telemetry)
     } else {
-        Err(RunError::GridTooLarge { columns, rows })
+        Err(RunError::GridTooLarge {
+            columns,
+            rows,
+            furthest,
+        })
     }
 }
 
@@ -256,6 +309,7 @@ fn run_sized<const W: usize, const H: usize>(
     let mut frames = Vec::new();
     let mut out_of_place_pct = 0.0;
     let mut first_fix: Option<usize> = None;
+    let mut route_cut_at_s = None;
     let dt_us = (TICK_S * 1e6) as u32;
     let tags_age_us = match tag_age {
         TagAge::Reported => u32::try_from(robot.camera_latency_us()).unwrap_or(u32::MAX),
@@ -263,6 +317,7 @@ fn run_sized<const W: usize, const H: usize>(
     };
     while let Some(command) = route.command() {
         if robot.time_s() > MAX_RUN_S {
+            route_cut_at_s = Some(robot.time_s());
             break;
         }
         let truth = robot.truth();
@@ -333,6 +388,7 @@ fn run_sized<const W: usize, const H: usize>(
         final_heading_error_deg: errors.final_heading_error_deg,
         max_heading_error_after_first_fix_deg: errors.max_heading_error_after_first_fix_deg,
         max_error_cm: errors.max_error_cm,
+        route_cut_at_s,
     };
     let record = RunRecord {
         scenario: scenario.name.clone(),

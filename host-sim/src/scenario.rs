@@ -1,10 +1,13 @@
 //! Scenario files: the world, the start, the sensors, the route and the random seed.
 //!
 //! Parsed from TOML with `serde`, then checked field by field: every number must be
-//! finite and inside a range that makes physical sense, and the error names the field.
-//! See the crate documentation for the schema.
+//! finite and inside a range that makes physical sense, the name must be usable as a file
+//! name, the world must lie on its grid's side of the origin, and the start clear of the
+//! walls. The error names the field. See the crate documentation for the schema.
 
-use serde::Deserialize;
+use crate::world::{point_segment_distance, Vec2, World as SolidWorld};
+use serde::de::Error as _;
+use serde::{Deserialize, Deserializer};
 use std::fmt;
 use std::path::Path;
 
@@ -15,7 +18,8 @@ pub type Segment = [[f64; 2]; 2];
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Scenario {
-    /// A short name, used in titles.
+    /// A short name, used in titles and in the pictures' file names (so letters, digits,
+    /// `-`, `_` and `.` only, not starting with `.`).
     pub name: String,
     /// Seed of the random noise (`--seed` overrides it).
     pub seed: u64,
@@ -38,6 +42,7 @@ pub struct Scenario {
 #[serde(deny_unknown_fields)]
 pub struct World {
     /// Every wall and box edge as a segment in millimetres.
+    #[serde(deserialize_with = "segments")]
     pub walls: Vec<Segment>,
     /// AprilTags on cards.
     pub tags: Vec<Tag>,
@@ -238,6 +243,30 @@ impl fmt::Display for ScenarioError {
 
 impl std::error::Error for ScenarioError {}
 
+/// `world.walls`, refusing a wall that is not exactly two points of exactly two numbers
+/// (a fixed-size array would take the first two and drop the rest without a word).
+fn segments<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<Segment>, D::Error> {
+    let walls = Vec::<Vec<Vec<f64>>>::deserialize(d)?;
+    walls
+        .iter()
+        .enumerate()
+        .map(|(i, wall)| match wall.as_slice() {
+            [a, b] => match (a.as_slice(), b.as_slice()) {
+                ([x0, y0], [x1, y1]) => Ok([[*x0, *y0], [*x1, *y1]]),
+                _ => Err(D::Error::custom(format!(
+                    "world.walls[{i}]: a point is [x, y], got points of {} and {} numbers",
+                    a.len(),
+                    b.len()
+                ))),
+            },
+            _ => Err(D::Error::custom(format!(
+                "world.walls[{i}]: a wall is two points [[x0, y0], [x1, y1]], got {} points",
+                wall.len()
+            ))),
+        })
+        .collect()
+}
+
 /// Accumulates the first invalid field.
 struct Check(Result<(), ScenarioError>);
 
@@ -251,6 +280,11 @@ impl Check {
         } else if value < lo || value > hi {
             self.fail(field, format!("must be between {lo} and {hi}, got {value}"));
         }
+    }
+
+    /// `value` must be at least `lo` (a floor above 0 that the core's integer units need).
+    fn at_least(&mut self, field: &str, value: f64, lo: f64, hi: f64) {
+        self.range(field, value, lo, hi);
     }
 
     fn positive(&mut self, field: &str, value: f64, hi: f64) {
@@ -273,6 +307,18 @@ impl Check {
 /// Largest coordinate or length a scenario may use, millimetres (a 100 m hall).
 const MAX_MM: f64 = 100_000.0;
 
+/// Longest scenario name, characters.
+const MAX_NAME_LEN: usize = 64;
+
+/// Shortest focal length and picture width, pixels: the core takes them in hundredths of
+/// a pixel and refuses a focal length that rounds to 0; no real camera is near 1 px.
+const MIN_CAMERA_PX: f64 = 1.0;
+
+/// Smallest and largest flow calibration, micrometres per count: the core takes it as a
+/// 16.16 fixed-point `i32`, which rounds below the one and overflows above the other.
+const MIN_UM_PER_COUNT: f64 = 0.01;
+const MAX_UM_PER_COUNT: f64 = 10_000.0;
+
 /// Longest camera latency a scenario may ask for, milliseconds: a second of pictures is
 /// well past what the core's pose history places (it refuses them as too old), so
 /// longer ones test nothing more.
@@ -293,9 +339,31 @@ impl Scenario {
         Ok(scenario)
     }
 
-    /// Checks every number.
+    /// Every point the world is placed by, with its field: the walls' ends, the tags'
+    /// centres and the start. The grid must hold all of them.
+    pub fn placed_points(&self) -> Vec<(String, Vec2)> {
+        let walls = self.world.walls.iter().enumerate().flat_map(|(i, w)| {
+            w.iter()
+                .enumerate()
+                .map(move |(j, p)| (format!("world.walls[{i}][{j}]"), Vec2::new(p[0], p[1])))
+        });
+        let tags = self.world.tags.iter().enumerate().map(|(i, t)| {
+            (
+                format!("world.tags[{i}] (x_mm, y_mm)"),
+                Vec2::new(t.x_mm, t.y_mm),
+            )
+        });
+        let start = std::iter::once((
+            "start (x_mm, y_mm)".to_string(),
+            Vec2::new(self.start.x_mm, self.start.y_mm),
+        ));
+        walls.chain(tags).chain(start).collect()
+    }
+
+    /// Checks every field.
     pub fn validate(&self) -> Result<(), ScenarioError> {
         let mut c = Check(Ok(()));
+        check_name(&mut c, &self.name);
         if self.world.walls.is_empty() {
             c.fail("world.walls", "needs at least one wall".into());
         }
@@ -344,14 +412,29 @@ impl Scenario {
         c.positive("sensors.tof.max_range_mm", s.tof.max_range_mm, 65_000.0);
         c.range("sensors.tof.noise_mm", s.tof.noise_mm, 0.0, 1000.0);
         c.range("sensors.tof.dropout", s.tof.dropout, 0.0, 1.0);
-        c.positive("sensors.flow.um_per_count", s.flow.um_per_count, 100_000.0);
+        c.at_least(
+            "sensors.flow.um_per_count",
+            s.flow.um_per_count,
+            MIN_UM_PER_COUNT,
+            MAX_UM_PER_COUNT,
+        );
         c.range("sensors.flow.scale_error", s.flow.scale_error, -0.5, 0.5);
         c.range("sensors.flow.noise_counts", s.flow.noise_counts, 0.0, 100.0);
         c.range("sensors.gyro.bias_dps", s.gyro.bias_dps, -100.0, 100.0);
         c.range("sensors.gyro.scale_error", s.gyro.scale_error, -0.5, 0.5);
         c.range("sensors.gyro.noise_dps", s.gyro.noise_dps, 0.0, 100.0);
-        c.positive("sensors.camera.width_px", s.camera.width_px, 10_000.0);
-        c.positive("sensors.camera.focal_px", s.camera.focal_px, 10_000.0);
+        c.at_least(
+            "sensors.camera.width_px",
+            s.camera.width_px,
+            MIN_CAMERA_PX,
+            10_000.0,
+        );
+        c.at_least(
+            "sensors.camera.focal_px",
+            s.camera.focal_px,
+            MIN_CAMERA_PX,
+            10_000.0,
+        );
         c.positive("sensors.camera.fov_deg", s.camera.fov_deg, 179.0);
         c.positive(
             "sensors.camera.max_range_mm",
@@ -398,6 +481,9 @@ impl Scenario {
         if c.0.is_ok() && (self.grid.max_range_mm as i32) <= self.grid.cell_mm {
             c.fail("grid.max_range_mm", "must be longer than one cell".into());
         }
+        if c.0.is_ok() {
+            self.check_placement(&mut c);
+        }
 
         if self.route.is_empty() {
             c.fail("route", "needs at least one step".into());
@@ -427,5 +513,61 @@ impl Scenario {
             }
         }
         c.0
+    }
+
+    /// The world on the grid's side of its origin, and the start clear of every wall.
+    fn check_placement(&self, c: &mut Check) {
+        let (ox, oy) = (self.grid.origin_x_mm, self.grid.origin_y_mm);
+        for (field, p) in self.placed_points() {
+            if p.x < f64::from(ox) || p.y < f64::from(oy) {
+                c.fail(
+                    &field,
+                    format!(
+                        "({}, {}) mm is outside the grid, which starts at grid.origin_x_mm, \
+                         grid.origin_y_mm = ({ox}, {oy}) mm",
+                        p.x, p.y
+                    ),
+                );
+            }
+        }
+        let start = Vec2::new(self.start.x_mm, self.start.y_mm);
+        let tolerance = self.world.wall_tolerance_mm;
+        let walls = self.world.walls.len();
+        // The world's solid segments are the walls, then a card per tag.
+        for (i, w) in SolidWorld::new(self).walls().iter().enumerate() {
+            let d = point_segment_distance(start, w.a, w.b);
+            if d < tolerance {
+                let what = match i.checked_sub(walls) {
+                    None => format!("world.walls[{i}]"),
+                    Some(t) => format!("the card of world.tags[{t}]"),
+                };
+                c.fail(
+                    "start",
+                    format!(
+                        "({}, {}) mm is inside {what} ({d:.0} mm from it; walls are \
+                         world.wall_tolerance_mm = {tolerance} mm thick)",
+                        start.x, start.y
+                    ),
+                );
+            }
+        }
+    }
+}
+
+/// The name becomes part of file names (`run --out DIR` writes `DIR/NAME-POSE-map.png`),
+/// so it must not leave `DIR`: no separators, no `..`, nothing hidden.
+fn check_name(c: &mut Check, name: &str) {
+    let plain = |ch: char| ch.is_ascii_alphanumeric() || matches!(ch, '-' | '_' | '.');
+    if name.is_empty() || name.chars().count() > MAX_NAME_LEN {
+        c.fail("name", format!("must be 1 to {MAX_NAME_LEN} characters"));
+    } else if name.starts_with('.') || !name.chars().all(plain) {
+        c.fail(
+            "name",
+            format!(
+                "becomes a file name, so letters, digits, '-', '_' and '.' only, not \
+                 starting with '.': got `{}`",
+                name.escape_default()
+            ),
+        );
     }
 }

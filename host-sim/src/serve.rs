@@ -14,12 +14,19 @@
 //! | `{"cmd":"tags"}` | `{"tags":[{"id","cx_px","distance_mm"}]}`: what the camera reads now, from where the robot was `sensors.camera.latency_ms` ago (the firmware only knows when the frame arrived) |
 //! | `{"cmd":"truth"}` | as `advance`, without moving |
 //!
-//! A request that cannot be understood gets `{"error": "..."}` and the session goes on.
+//! A request that cannot be understood (not UTF-8, not JSON, an unknown command) or that
+//! asks for the impossible (time going backwards or below 0, a step longer than
+//! [`MAX_ADVANCE_S`]) gets `{"error": "..."}`, and the session goes on.
 
 use crate::robot::{Command, Robot};
 use crate::scenario::Scenario;
 use serde::{Deserialize, Serialize};
 use std::io::{BufRead, Write};
+
+/// The longest one `advance` may move the world on, seconds. The emulator asks for a few
+/// milliseconds at a time; a minute is 12,000 sub-steps, answered at once, where a
+/// runaway `t_s` (1e12) would keep the process busy for ever without a reply.
+pub const MAX_ADVANCE_S: f64 = 60.0;
 
 /// One request line.
 #[derive(Debug, Deserialize, PartialEq)]
@@ -89,9 +96,8 @@ pub fn answer(robot: &mut Robot, scenario: &Scenario, line: &str) -> String {
     };
     let reply = match request {
         Request::Advance { t_s, left, right } => {
-            if !(t_s.is_finite() && left.is_finite() && right.is_finite()) {
-                return serde_json::json!({ "error": "advance needs finite t_s, left and right" })
-                    .to_string();
+            if let Err(problem) = check_advance(robot.time_s(), t_s, left, right) {
+                return serde_json::json!({ "error": problem }).to_string();
             }
             robot.advance_to(t_s, command_from_duty(scenario, left, right));
             truth(robot)
@@ -127,23 +133,55 @@ pub fn answer(robot: &mut Robot, scenario: &Scenario, line: &str) -> String {
     reply.unwrap_or_else(|e| serde_json::json!({ "error": e.to_string() }).to_string())
 }
 
-/// Serves requests from `input` until it ends.
+/// How far before the world's time an `advance` may ask without being refused, seconds:
+/// the world can stand a few nanoseconds past a time it was asked for (it rounds a time
+/// within a millionth of a 5 ms sub-step up to that sub-step).
+const BACKWARDS_TOLERANCE_S: f64 = 1e-6;
+
+/// Why an `advance` from the world's time `now_s` cannot be done, if it cannot.
+fn check_advance(now_s: f64, t_s: f64, left: f64, right: f64) -> Result<(), String> {
+    if !(t_s.is_finite() && left.is_finite() && right.is_finite()) {
+        Err("advance needs finite t_s, left and right".into())
+    } else if t_s < 0.0 {
+        Err(format!("advance t_s must be 0 or later, got {t_s}"))
+    } else if t_s < now_s - BACKWARDS_TOLERANCE_S {
+        Err(format!(
+            "advance t_s {t_s} is before the world's time {now_s} s: time only goes forward"
+        ))
+    } else if t_s - now_s > MAX_ADVANCE_S {
+        Err(format!(
+            "advance may move the world on at most {MAX_ADVANCE_S} s at a time: from {now_s} s to {t_s} s is too far"
+        ))
+    } else {
+        Ok(())
+    }
+}
+
+/// Serves requests from `input` until it ends. A line that is not UTF-8 is answered with
+/// an error like any other bad request; only a failure to read or write ends the session.
 pub fn serve(
     scenario: &Scenario,
     seed: u64,
-    input: impl BufRead,
+    mut input: impl BufRead,
     mut output: impl Write,
 ) -> std::io::Result<()> {
     let mut robot = Robot::new(scenario, seed);
-    for line in input.lines() {
-        let line = line?;
-        if line.trim().is_empty() {
-            continue;
+    let mut bytes = Vec::new();
+    loop {
+        bytes.clear();
+        if input.read_until(b'\n', &mut bytes)? == 0 {
+            return Ok(());
         }
-        writeln!(output, "{}", answer(&mut robot, scenario, &line))?;
+        let reply = match std::str::from_utf8(&bytes) {
+            Ok(line) if line.trim().is_empty() => continue,
+            Ok(line) => answer(&mut robot, scenario, line.trim_end_matches(['\n', '\r'])),
+            Err(e) => {
+                serde_json::json!({ "error": format!("bad request: not UTF-8: {e}") }).to_string()
+            }
+        };
+        writeln!(output, "{reply}")?;
         output.flush()?;
     }
-    Ok(())
 }
 
 #[cfg(test)]
@@ -218,5 +256,56 @@ mod tests {
             "{}",
             lines[2]
         );
+    }
+
+    /// Serves `input` on the seed scenario and returns the reply lines.
+    fn session(input: &[u8]) -> Vec<serde_json::Value> {
+        let mut out = Vec::new();
+        assert!(serve(&seed(), 1, input, &mut out).is_ok());
+        String::from_utf8_lossy(&out).lines().map(json).collect()
+    }
+
+    fn error_of(reply: &serde_json::Value) -> &str {
+        reply["error"].as_str().unwrap_or_default()
+    }
+
+    #[test]
+    fn impossible_times_get_an_error_and_the_session_goes_on() {
+        let lines = session(
+            concat!(
+                "{\"cmd\":\"advance\",\"t_s\":1e12,\"left\":0.5,\"right\":0.5}\n",
+                "{\"cmd\":\"advance\",\"t_s\":-5,\"left\":0,\"right\":0}\n",
+                "{\"cmd\":\"advance\",\"t_s\":2.0,\"left\":0.5,\"right\":0.5}\n",
+                "{\"cmd\":\"advance\",\"t_s\":1.0,\"left\":0.5,\"right\":0.5}\n",
+                "{\"cmd\":\"advance\",\"t_s\":62.5,\"left\":0,\"right\":0}\n",
+                "{\"cmd\":\"advance\",\"t_s\":2.0,\"left\":0,\"right\":0}\n",
+                "{\"cmd\":\"truth\"}\n",
+            )
+            .as_bytes(),
+        );
+        assert_eq!(lines.len(), 7, "{lines:?}");
+        assert!(error_of(&lines[0]).contains("at most 60 s"), "{}", lines[0]);
+        assert!(error_of(&lines[1]).contains("0 or later"), "{}", lines[1]);
+        assert_eq!(lines[2]["t_s"].as_f64(), Some(2.0), "{}", lines[2]);
+        assert!(error_of(&lines[3]).contains("before"), "{}", lines[3]);
+        assert!(error_of(&lines[4]).contains("at most 60 s"), "{}", lines[4]);
+        // The same time again is no step at all, and fine.
+        assert_eq!(lines[5]["t_s"].as_f64(), Some(2.0), "{}", lines[5]);
+        assert_eq!(lines[6]["t_s"].as_f64(), Some(2.0), "{}", lines[6]);
+    }
+
+    #[test]
+    fn a_line_that_is_not_utf8_gets_an_error_and_the_session_goes_on() {
+        let mut input = b"{\"cmd\":\"gyro\"}\n".to_vec();
+        input.extend(b"{\"cmd\":\"\xff\"}\r\n");
+        input.extend(b"\n  \n");
+        input.extend(b"{\"cmd\":\"advance\",\"t_s\":1.0,\"left\":0.5,\"right\":0.5}\r\n");
+        input.extend(b"{\"cmd\":\"truth\"}"); // the last line may lack its newline
+        let lines = session(&input);
+        assert_eq!(lines.len(), 4, "{lines:?}");
+        assert!(lines[0]["rate_mdps"].is_i64(), "{}", lines[0]);
+        assert!(error_of(&lines[1]).contains("UTF-8"), "{}", lines[1]);
+        assert_eq!(lines[2]["t_s"].as_f64(), Some(1.0), "{}", lines[2]);
+        assert_eq!(lines[3]["t_s"].as_f64(), Some(1.0), "{}", lines[3]);
     }
 }

@@ -19,8 +19,8 @@ use crate::truth::{route_start_s, truth_at, TruthSample};
 use crate::world::World;
 use serde::Serialize;
 use slam_core::telemetry::{
-    encode, DecoderStats, FirmwareVersion, Hello, MapRows, Message, Schedule, SensorHealth,
-    StreamDecoder, Streamer, Tick, MAX_FRAME_LEN,
+    encode, CellScale, DecoderStats, FirmwareVersion, Hello, MapRows, Message, Schedule,
+    SensorHealth, StreamDecoder, Streamer, Tick, MAX_FRAME_LEN,
 };
 use slam_core::{Counters, FixOutcome, GridGeometry, GridMap, Occupancy, StepReport};
 use std::fmt;
@@ -111,16 +111,28 @@ fn push(bytes: &mut Vec<u8>, errors: &mut u32, message: &Message) {
     }
 }
 
+/// The most columns or rows a stream's `Hello` may declare. The largest grid the core is
+/// built with is 206 x 206 (`room-10m`), the firmware's is smaller; the margin leaves room
+/// for bigger builds while a 1024 x 1024 map stays a 1 MB buffer. A `Hello` past it (a
+/// corrupted or hostile stream: 65535 x 65535 would be 4 GB) is refused and counted.
+pub const MAX_GRID_SIDE: u16 = 1024;
+
 /// Builds a run's record from a robot's messages.
 #[derive(Clone, Debug, Default)]
 pub struct TelemetryRecorder {
     hello: Option<Hello>,
     /// The latest cell bytes, `width * height`, row-major from the lowest row.
     cells: Vec<i8>,
+    /// How many of `cells` the latest `Hello`'s scale calls free or occupied, kept up to
+    /// date chunk by chunk so that a tick costs what it changed, not the whole map.
+    known_cells: usize,
     ticks: Vec<TickRecord>,
     last_tick: Option<Tick>,
     health: Option<SensorHealth>,
     hellos: u32,
+    /// `Hello`s refused (see [`MAX_GRID_SIDE`]), and what was wrong with the last.
+    hellos_refused: u32,
+    last_refused: Option<String>,
     map_rows: u32,
     map_rows_refused: u32,
     restarts: u32,
@@ -162,6 +174,12 @@ impl TelemetryRecorder {
 
     fn take_hello(&mut self, h: &Hello) {
         self.hellos += 1;
+        if let Some(problem) = grid_problem(h) {
+            // Keep the grid there is (if any): its chunks may still come.
+            self.hellos_refused += 1;
+            self.last_refused = Some(problem);
+            return;
+        }
         let same_grid = self.hello.is_some_and(|old| {
             (
                 old.width,
@@ -175,7 +193,13 @@ impl TelemetryRecorder {
             // A new grid (or the first): start its map empty.
             self.cells = vec![0; usize::from(h.width) * usize::from(h.height)];
         }
+        let same_scale = self.hello.is_some_and(|old| old.scale() == h.scale());
         self.hello = Some(*h);
+        if !(same_grid && same_scale) {
+            // New thresholds classify every cell anew: once per such Hello.
+            let scale = h.scale();
+            self.known_cells = self.cells.iter().filter(|&&c| known(scale, c)).count();
+        }
     }
 
     fn take_tick(&mut self, t: &Tick) {
@@ -185,14 +209,8 @@ impl TelemetryRecorder {
         }
         let pose = t.pose();
         let known_pct = match self.hello {
-            Some(h) if !self.cells.is_empty() => {
-                let scale = h.scale();
-                let known = self
-                    .cells
-                    .iter()
-                    .filter(|&&c| scale.belief(c) != Occupancy::Unknown)
-                    .count();
-                100.0 * known as f64 / self.cells.len() as f64
+            Some(_) if !self.cells.is_empty() => {
+                100.0 * self.known_cells as f64 / self.cells.len() as f64
             }
             _ => f64::NAN,
         };
@@ -227,6 +245,10 @@ impl TelemetryRecorder {
             .and_then(|end| self.cells.get_mut(start..end));
         match slot {
             Some(slot) if usize::from(r.first_column) < width => {
+                let scale = h.scale();
+                let was = slot.iter().filter(|&&c| known(scale, c)).count();
+                let now = cells.iter().filter(|&&c| known(scale, c)).count();
+                self.known_cells = self.known_cells - was + now;
                 slot.copy_from_slice(cells);
                 self.map_rows += 1;
             }
@@ -234,9 +256,14 @@ impl TelemetryRecorder {
         }
     }
 
-    /// The latest `Hello`, if one came.
+    /// The latest `Hello` taken, if one came.
     pub fn hello(&self) -> Option<&Hello> {
         self.hello.as_ref()
+    }
+
+    /// `Hello`s refused because their grid is impossible or past [`MAX_GRID_SIDE`].
+    pub fn hellos_refused(&self) -> u32 {
+        self.hellos_refused
     }
 
     /// The last `Tick` received.
@@ -348,12 +375,20 @@ impl TelemetryRecorder {
             known_pct: map.known_pct(),
             out_of_place: self.world.as_ref().map(|_| map.out_of_place),
             truth: self.truth.as_ref().map(|truth| TruthFigures {
-                errors: pose_errors(&self.ticks),
+                errors: self
+                    .ticks
+                    .iter()
+                    .any(|t| t.error_cm.is_finite())
+                    .then(|| pose_errors(&self.ticks)),
                 truth_samples: truth.len(),
                 ticks_without_truth: self.ticks_without_truth,
                 route_start_s: route_start_s(truth),
             }),
             hellos: self.hellos,
+            hellos_refused: self.last_refused.clone().map(|last| RefusedHellos {
+                count: self.hellos_refused,
+                last,
+            }),
             map_rows: self.map_rows,
             map_rows_refused: self.map_rows_refused,
             restarts: self.restarts,
@@ -369,6 +404,34 @@ impl TelemetryRecorder {
             },
         }
     }
+}
+
+/// Whether a cell byte is a firm belief under `scale`.
+fn known(scale: CellScale, cell: i8) -> bool {
+    scale.belief(cell) != Occupancy::Unknown
+}
+
+/// What is wrong with the grid a `Hello` declares, if anything.
+fn grid_problem(h: &Hello) -> Option<String> {
+    if h.width == 0 || h.height == 0 || h.width > MAX_GRID_SIDE || h.height > MAX_GRID_SIDE {
+        Some(format!(
+            "a {} x {} grid (at most {MAX_GRID_SIDE} x {MAX_GRID_SIDE} is taken)",
+            h.width, h.height
+        ))
+    } else if h.cell_mm < 1 {
+        Some(format!("{} mm cells (at least 1 mm)", h.cell_mm))
+    } else {
+        None
+    }
+}
+
+/// `Hello`s the viewer refused.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub struct RefusedHellos {
+    /// How many.
+    pub count: u32,
+    /// What the last one declared that could not be taken.
+    pub last: String,
 }
 
 /// The pose in the last tick received.
@@ -435,6 +498,8 @@ pub struct Summary {
     pub truth: Option<TruthFigures>,
     /// `Hello`s received.
     pub hellos: u32,
+    /// `Hello`s refused, with the reason for the last; `None` when all were taken.
+    pub hellos_refused: Option<RefusedHellos>,
     /// Map chunks placed.
     pub map_rows: u32,
     /// Map chunks refused: before any `Hello`, or outside the grid.
@@ -450,9 +515,10 @@ pub struct Summary {
 /// A telemetry run's pose against the truth.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct TruthFigures {
-    /// The figures `host-sim run` reports, under the same names.
-    #[serde(flatten)]
-    pub errors: PoseErrors,
+    /// The figures `host-sim run` reports, under the same names; `None` (each `null` in
+    /// JSON) when no tick had a truth sample near its time, so there was nothing to score.
+    #[serde(flatten, serialize_with = "errors_or_nulls")]
+    pub errors: Option<PoseErrors>,
     /// Truth samples given.
     pub truth_samples: usize,
     /// Ticks with no truth sample near their time: left out of the errors.
@@ -460,6 +526,34 @@ pub struct TruthFigures {
     /// The last time the robot stood where it started, seconds (see
     /// [`crate::truth::route_start_s`]): subtract it from a time to compare with `run`'s.
     pub route_start_s: Option<f64>,
+}
+
+/// The keys of [`PoseErrors`], for [`errors_or_nulls`].
+const POSE_ERROR_KEYS: [&str; 5] = [
+    "final_error_cm",
+    "max_error_after_first_fix_cm",
+    "final_heading_error_deg",
+    "max_heading_error_after_first_fix_deg",
+    "max_error_cm",
+];
+
+/// The errors' keys with their values, or each with `null`: a reader finds the key
+/// either way, and never a 0 that was not measured.
+fn errors_or_nulls<S: serde::Serializer>(
+    errors: &Option<PoseErrors>,
+    s: S,
+) -> Result<S::Ok, S::Error> {
+    use serde::ser::SerializeMap;
+    match errors {
+        Some(e) => e.serialize(s),
+        None => {
+            let mut map = s.serialize_map(Some(POSE_ERROR_KEYS.len()))?;
+            for key in POSE_ERROR_KEYS {
+                map.serialize_entry(key, &None::<f64>)?;
+            }
+            map.end()
+        }
+    }
 }
 
 impl fmt::Display for Summary {
@@ -496,17 +590,23 @@ impl fmt::Display for Summary {
             None => writeln!(f)?,
         }
         if let Some(t) = self.truth {
-            let e = t.errors;
             let start = t.route_start_s.map_or("never moved".to_string(), |s| {
                 format!("moved after {s:.1} s")
             });
-            writeln!(
-                f,
-                "against the truth ({} samples, {} ticks without one; {start}): after the first fix error <= {:.1} cm, heading <= {:.1} deg; final error {:.1} cm, heading {:.1} deg; max error {:.1} cm",
-                t.truth_samples, t.ticks_without_truth, e.max_error_after_first_fix_cm,
-                e.max_heading_error_after_first_fix_deg, e.final_error_cm,
-                e.final_heading_error_deg, e.max_error_cm
-            )?;
+            match t.errors {
+                Some(e) => writeln!(
+                    f,
+                    "against the truth ({} samples, {} ticks without one; {start}): after the first fix error <= {:.1} cm, heading <= {:.1} deg; final error {:.1} cm, heading {:.1} deg; max error {:.1} cm",
+                    t.truth_samples, t.ticks_without_truth, e.max_error_after_first_fix_cm,
+                    e.max_heading_error_after_first_fix_deg, e.final_error_cm,
+                    e.final_heading_error_deg, e.max_error_cm
+                )?,
+                None => writeln!(
+                    f,
+                    "against the truth ({} samples, {} ticks without one): no tick has a truth sample near its time, so there is nothing to score against",
+                    t.truth_samples, t.ticks_without_truth
+                )?,
+            }
         }
         if let Some(c) = self.counters {
             writeln!(
@@ -526,6 +626,13 @@ impl fmt::Display for Summary {
                 h.watchdog_feeds
             )?,
             None => writeln!(f, "health: none received")?,
+        }
+        if let Some(r) = &self.hellos_refused {
+            writeln!(
+                f,
+                "Hellos refused: {} (the last declared {}); their map is not drawn",
+                r.count, r.last
+            )?;
         }
         let b = &self.bad_frames;
         write!(

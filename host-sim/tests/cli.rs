@@ -107,6 +107,60 @@ fn bad_arguments_are_refused() {
 }
 
 #[test]
+fn every_subcommand_has_help() {
+    for args in [
+        vec!["--help"],
+        vec!["run", "--help"],
+        vec!["view", "--help"],
+        vec!["serve", "--help"],
+        vec!["bench", "--help"],
+        vec!["help", "run"],
+    ] {
+        let out = host_sim(&args);
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert_eq!(out.status.code(), Some(0), "{args:?}: {text}");
+        assert!(text.contains("Usage: host-sim"), "{args:?}: {text}");
+    }
+    // The defaults are the ones the README and the firmware assume.
+    let view = host_sim(&["view", "--help"]);
+    let text = String::from_utf8_lossy(&view.stdout);
+    assert!(text.contains("[default: 921600]"), "{text}");
+    let run = host_sim(&["run", "--help"]);
+    let text = String::from_utf8_lossy(&run.stdout);
+    assert!(text.contains("[default: tags]"), "{text}");
+}
+
+#[test]
+fn an_unknown_subcommand_is_named() {
+    let out = host_sim(&["frobnicate"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("frobnicate"), "{err}");
+}
+
+#[test]
+fn an_unknown_option_is_named() {
+    for sub in ["run", "view", "serve", "bench"] {
+        let out = host_sim(&[sub, "x.toml", "--frobnicate"]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{sub}: {err}");
+        assert!(err.contains("--frobnicate"), "{sub}: {err}");
+    }
+    // A bad value names its option and the value.
+    let out = host_sim(&["run", "x.toml", "--pose", "sideways"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--pose") && err.contains("sideways"), "{err}");
+    for bad in ["0", "-5", "nan", "inf"] {
+        let out = host_sim(&["view", "x.bin", "--seconds", bad]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{bad}: {err}");
+        assert!(err.contains("--seconds"), "{bad}: {err}");
+    }
+    let out = host_sim(&["view", "x.bin", "--baud", "0"]);
+    assert_eq!(out.status.code(), Some(2));
+}
+
+#[test]
 fn missing_field_is_named() {
     refused(
         "missing.toml",
@@ -209,4 +263,144 @@ fn camera_latency_is_checked() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
+}
+
+#[test]
+fn a_name_that_would_leave_the_out_dir_is_refused() {
+    for (file, name) in [
+        ("name-abs.toml", "/abs/x"),
+        ("name-up.toml", "../../x"),
+        ("name-sep.toml", "a/b"),
+        ("name-hidden.toml", ".x"),
+        ("name-empty.toml", ""),
+    ] {
+        let text = seed_text().replace("name = \"seed-mat\"", &format!("name = \"{name}\""));
+        let path = scratch(file, &text);
+        let out_dir = path.with_file_name(format!("{file}-out"));
+        let out = host_sim(&[
+            "run",
+            path.to_str().unwrap_or_default(),
+            "--out",
+            out_dir.to_str().unwrap_or_default(),
+        ]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{name}: {err}");
+        assert!(err.contains("field `name`"), "{name}: {err}");
+        assert!(!out_dir.exists(), "{name}: nothing is written");
+    }
+}
+
+#[test]
+fn the_world_must_lie_on_its_grid() {
+    // Origins past the world: every wall is below and left of the grid.
+    refused(
+        "origin-x.toml",
+        &seed_text().replace("origin_x_mm = -150", "origin_x_mm = 99000"),
+        "world.walls[0][0]",
+    );
+    refused(
+        "origin-xy.toml",
+        &seed_text()
+            .replace("origin_x_mm = -150", "origin_x_mm = 99000")
+            .replace("origin_y_mm = -150", "origin_y_mm = 99000"),
+        "grid.origin_x_mm",
+    );
+    refused(
+        "tag-outside.toml",
+        &seed_text().replace("x_mm = 1500", "x_mm = -500"),
+        "world.tags[1]",
+    );
+    refused(
+        "start-outside.toml",
+        &seed_text().replace("x_mm = 700\ny_mm = 500", "x_mm = 700\ny_mm = -900"),
+        "start",
+    );
+    // Past the far side of the largest grid: the furthest point is named.
+    refused(
+        "wall-far.toml",
+        &seed_text().replace("[[0, 0], [2000, 0]]", "[[0, 0], [20000, 0]]"),
+        "world.walls[0][1]",
+    );
+    refused(
+        "start-far.toml",
+        &seed_text().replace("x_mm = 700\ny_mm = 500", "x_mm = 700\ny_mm = 50000"),
+        "start",
+    );
+}
+
+#[test]
+fn the_start_inside_a_wall_is_refused() {
+    refused(
+        "start-wall.toml",
+        &seed_text().replace("x_mm = 700\ny_mm = 500", "x_mm = 700\ny_mm = 10"),
+        "world.walls[0]",
+    );
+    refused(
+        "start-card.toml",
+        &seed_text().replace("x_mm = 700\ny_mm = 500", "x_mm = 1500\ny_mm = 1930"),
+        "world.tags[1]",
+    );
+}
+
+#[test]
+fn a_wall_is_two_points_of_two_numbers() {
+    refused(
+        "wall-three-points.toml",
+        &seed_text().replace("[[0, 0], [2000, 0]]", "[[0, 0], [2000, 0], [5, 5]]"),
+        "world.walls[0]: a wall is two points",
+    );
+    refused(
+        "wall-three-numbers.toml",
+        &seed_text().replace("[[2000, 0], [2000, 2000]]", "[[2000, 0, 7], [2000, 2000]]"),
+        "world.walls[1]: a point is [x, y]",
+    );
+    refused(
+        "wall-one-point.toml",
+        &seed_text().replace("[[2000, 0], [2000, 2000]]", "[[2000, 0]]"),
+        "world.walls[1]",
+    );
+}
+
+#[test]
+fn numbers_the_core_checks_are_checked_first() {
+    refused(
+        "focal.toml",
+        &seed_text().replace("focal_px = 92.4", "focal_px = 0.001"),
+        "sensors.camera.focal_px",
+    );
+    refused(
+        "width.toml",
+        &seed_text().replace("width_px = 320", "width_px = 0.001"),
+        "sensors.camera.width_px",
+    );
+    refused(
+        "flow-small.toml",
+        &seed_text().replace("um_per_count = 100", "um_per_count = 0.000001"),
+        "sensors.flow.um_per_count",
+    );
+    refused(
+        "flow-big.toml",
+        &seed_text().replace("um_per_count = 100", "um_per_count = 50000"),
+        "sensors.flow.um_per_count",
+    );
+}
+
+#[test]
+fn a_route_longer_than_a_run_is_refused_before_it_runs() {
+    let text = seed_text().replace("seconds = 7", "seconds = 3000");
+    let path = scratch("route-long.toml", &text);
+    let started = std::time::Instant::now();
+    let out = host_sim(&["run", path.to_str().unwrap_or_default(), "--json"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("field `route`") && err.contains("6034.") && err.contains("3600 s"),
+        "{err}"
+    );
+    assert!(err.contains("route-long.toml"), "the file is named: {err}");
+    assert!(out.stdout.is_empty());
+    assert!(started.elapsed() < std::time::Duration::from_secs(5));
+    // The seed's own route is planned to the tick it runs.
+    let scenario = host_sim::Scenario::load(&seed_path()).expect("seed scenario loads");
+    assert_eq!(host_sim::route::planned_ticks(&scenario.route, 0.1), 485);
 }

@@ -1,0 +1,147 @@
+//! The command line: one `clap` parser per subcommand.
+//!
+//! Every flag keeps the name, meaning and default it had when the arguments were read by
+//! hand, so the README's commands and the emulator harness's calls work as written.
+//! Usage errors exit with 2, `--help` with 0 (clap's codes, which are also ours).
+
+use clap::builder::{PossibleValuesParser, TypedValueParser};
+use clap::{Args, Parser, Subcommand, ValueHint};
+use host_sim::run::PoseMode;
+use std::path::PathBuf;
+
+/// The telemetry link's speed, baud: what the firmware sends at
+/// (`firmware/src/board.rs`, `TELEMETRY_BAUD`).
+pub const TELEMETRY_BAUD: u32 = 921_600;
+
+/// Longest `view --seconds`, seconds (about 32 years): it keeps `Instant::now()` plus the
+/// deadline from overflowing, which would panic.
+const MAX_VIEW_SECONDS: f64 = 1e9;
+
+/// BugBot's simulated mat and robot: run a scenario, watch a robot's telemetry, serve
+/// the emulator, or benchmark.
+///
+/// Exit codes: 0 done, 1 the pictures or the stream could not be written, 2 bad
+/// arguments, scenario or stream.
+#[derive(Debug, Parser)]
+#[command(name = "host-sim", version)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Run a scenario and print its figures; optionally draw its pictures and write the
+    /// telemetry stream the robot would send.
+    Run(RunArgs),
+    /// Decode a telemetry stream (a file, or live from the robot's serial port until end
+    /// of file, Ctrl-C or --seconds), print what it held and draw the same two pictures.
+    View(ViewArgs),
+    /// The simulator as the emulated robot's world: JSON lines on stdin and stdout.
+    Serve(ServeArgs),
+    /// Simulated seconds per wall second on a route, and host nanoseconds per `step`.
+    Bench(BenchArgs),
+}
+
+/// `host-sim run`.
+#[derive(Debug, Args)]
+pub struct RunArgs {
+    /// The scenario file (TOML).
+    #[arg(value_name = "SCENARIO", value_hint = ValueHint::FilePath)]
+    pub scenario: PathBuf,
+    /// Which pose the mapper uses: the simulator's truth, odometry alone, or odometry
+    /// corrected by two-tag fixes.
+    #[arg(long, value_name = "MODE", default_value = "tags", value_parser = pose_mode())]
+    pub pose: PoseMode,
+    /// Seed of the noise (default: the scenario's `seed`).
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
+    pub seed: Option<u64>,
+    /// Print the figures as one JSON object.
+    #[arg(long)]
+    pub json: bool,
+    /// Draw DIR/NAME-POSE-map.png and DIR/NAME-POSE-chart.png, creating DIR.
+    #[arg(long, value_name = "DIR", value_hint = ValueHint::DirPath)]
+    pub out: Option<PathBuf>,
+    /// Also write the telemetry stream the robot would send on this run.
+    #[arg(long, value_name = "FILE", value_hint = ValueHint::FilePath)]
+    pub telemetry: Option<PathBuf>,
+}
+
+/// `host-sim view`.
+#[derive(Debug, Args)]
+pub struct ViewArgs {
+    /// A recorded telemetry file, or the robot's serial device (e.g. /dev/ttyACM0, COM3).
+    #[arg(value_name = "SOURCE", value_hint = ValueHint::AnyPath)]
+    pub source: PathBuf,
+    /// Draw the map and chart into DIR, creating it.
+    #[arg(long, value_name = "DIR", value_hint = ValueHint::DirPath)]
+    pub out: Option<PathBuf>,
+    /// Serial speed, baud: the firmware's telemetry link runs at 921600.
+    #[arg(long, value_name = "N", default_value_t = TELEMETRY_BAUD,
+          value_parser = clap::value_parser!(u32).range(1..))]
+    pub baud: u32,
+    /// Stop reading after this many seconds.
+    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = positive_seconds)]
+    pub seconds: Option<f64>,
+    /// Print the summary as one JSON object.
+    #[arg(long)]
+    pub json: bool,
+    /// Score each tick's pose against this truth (a line of JSON per step, as the
+    /// emulator's harness writes it).
+    #[arg(long, value_name = "TRUTH.jsonl", value_hint = ValueHint::FilePath)]
+    pub truth: Option<PathBuf>,
+    /// Score the map against this scenario's world, giving `run`'s figures.
+    #[arg(long, value_name = "SCENARIO.toml", value_hint = ValueHint::FilePath)]
+    pub scenario: Option<PathBuf>,
+}
+
+/// `host-sim serve`.
+#[derive(Debug, Args)]
+pub struct ServeArgs {
+    /// The scenario file (TOML).
+    #[arg(value_name = "SCENARIO", value_hint = ValueHint::FilePath)]
+    pub scenario: PathBuf,
+    /// Seed of the noise (default: the scenario's `seed`).
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
+    pub seed: Option<u64>,
+}
+
+/// `host-sim bench`.
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    /// The scenario to run (relative to the workspace root by default).
+    #[arg(value_name = "SCENARIO", value_hint = ValueHint::FilePath,
+          default_value = "host-sim/scenarios/seed-mat.toml")]
+    pub scenario: PathBuf,
+}
+
+/// `--pose`: the three names, listed in `--help` and in the error for any other.
+fn pose_mode() -> impl TypedValueParser<Value = PoseMode> {
+    PossibleValuesParser::new(
+        [PoseMode::Truth, PoseMode::DeadReckoning, PoseMode::Tags].map(PoseMode::name),
+    )
+    .try_map(|name| name.parse::<PoseMode>())
+}
+
+/// `--seconds`: a finite, positive number of seconds below [`MAX_VIEW_SECONDS`].
+fn positive_seconds(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(s) if s.is_finite() && s > 0.0 && s < MAX_VIEW_SECONDS => Ok(s),
+        _ => Err(format!(
+            "wants a positive number of seconds below {MAX_VIEW_SECONDS}"
+        )),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    #[test]
+    fn the_parsers_are_consistent() {
+        Cli::command().debug_assert();
+    }
+}
