@@ -287,7 +287,7 @@ fn cmd_view(args: &[String]) -> Result<(), Failure> {
             2,
             format!(
                 "{shown}: no telemetry frames in it ({} bad frames): is it a BugBot telemetry stream?",
-                summary.bad_frames.total
+                summary.bad_frames.total()
             ),
         ));
     }

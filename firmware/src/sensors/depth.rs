@@ -15,7 +15,7 @@
 //!   tick maps the scan at the pose of that moment), to core 0 through `ZONES` (a `Signal`: the
 //!   newest frame wins; it is `CriticalSectionRawMutex`-guarded, which on the RP2040 is a
 //!   hardware spinlock shared by both cores). A failed start-up is counted in
-//!   `depth_init_failures` (on the wire, `depth_start_failures`: a sensor that never
+//!   `depth_start_failures` (a sensor that never
 //!   starts shows as that count climbing), a read error in `depth_bus_errors`; start-up
 //!   is retried with a doubling back-off, and after
 //!   `ERRORS_BEFORE_RESTART` read errors in a row the sensor is power-cycled (LPn) and
@@ -148,7 +148,7 @@ mod ranging {
                 }
                 Err(step) => {
                     defmt::warn!("depth: start-up failed at {=str}", step);
-                    HEALTH.depth_init_failures.bump();
+                    HEALTH.depth_start_failures.bump();
                 }
             }
             Timer::after(backoff).await;

@@ -111,7 +111,7 @@ async fn start(sensor: &mut Sensor) {
                 defmt::warn!("flow: start-up timed out");
             }
         }
-        HEALTH.flow_init_failures.bump();
+        HEALTH.flow_start_failures.bump();
         Timer::after(backoff).await;
         backoff = (backoff * 2).min(MAX_BACKOFF);
     }

@@ -118,7 +118,7 @@ async fn start(imu: &mut Imu) {
                 defmt::warn!("imu: start-up timed out");
             }
         }
-        HEALTH.gyro_init_failures.bump();
+        HEALTH.gyro_start_failures.bump();
         Timer::after(backoff).await;
         backoff = (backoff * 2).min(MAX_BACKOFF);
     }
