@@ -140,7 +140,7 @@ impl Tick {
     }
 }
 
-/// A run of map cells, in cell units; see the module doc for the scale.
+/// A run of map cells, in cell units; see [the telemetry module](super) for the scale.
 #[derive(Clone, PartialEq, Eq, Debug, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct MapRows {
