@@ -11,12 +11,12 @@
 //! one with no tags, replaces the previous picture: a picture with no tags in view is news
 //! too (the tags left the view), and the SLAM tick treats an empty list as "no fix".
 
-use wire::camera_link::{FrameDecoder, FrameRepr};
 use embassy_rp::uart::{self, BufferedUart};
 use embassy_time::Instant;
 use embedded_io_async::Read;
 use slam_core::{TagDetection, TagDetections};
 use static_cell::ConstStaticCell;
+use wire::camera_link::{FrameDecoder, FrameRepr};
 
 use crate::board::{CameraLinkPins, CAMERA_BAUD};
 use crate::health::HEALTH;
