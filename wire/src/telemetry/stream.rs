@@ -156,7 +156,7 @@ impl Streamer {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum EncodeError {
     /// The caller's buffer is shorter than the frame; `needed` bytes would do
-    /// ([`MAX_FRAME_LEN`] always does).
+    /// ([`MAX_FRAME_LEN`](super::MAX_FRAME_LEN) always does).
     BufferTooSmall {
         /// The frame's length, delimiter included.
         needed: usize,
@@ -167,8 +167,8 @@ pub enum EncodeError {
 
 /// Frames `message` into `out` and returns the frame's length, delimiter included.
 ///
-/// Needs at most [`MAX_FRAME_LEN`] bytes of `out`; on [`EncodeError`] `out` may hold
-/// part of a frame and must not be sent.
+/// Needs at most [`MAX_FRAME_LEN`](super::MAX_FRAME_LEN) bytes of `out`; on
+/// [`EncodeError`] `out` may hold part of a frame and must not be sent.
 pub fn encode(message: &Message, out: &mut [u8]) -> Result<usize, EncodeError> {
     let mut raw = [0u8; MAX_RAW_LEN];
     let (version, rest) = raw.split_at_mut(1);
