@@ -2,7 +2,7 @@
 #
 # Finds AprilTags (family 36h11) in each 320 x 240 grayscale frame and sends
 # one frame per image over the UART at 115200 baud, in the format defined by
-# the Rust crate `drivers::camera_link` (see its module doc):
+# the Rust crate `wire::camera_link` (wire/src/camera_link, see its module doc):
 #
 #   COBS( version u8 = 1 | counter u16 | count u8 (<= 8)
 #         | count x (tag id u16, cx u16, cy u16, distance u16)

@@ -12,7 +12,6 @@
 //! | --- | --- | --- |
 //! | [`flow`] | PixArt PMW3901 optical flow | SPI mode 3, `SpiDevice` |
 //! | [`imu`] | TDK InvenSense ICM-42688-P gyro | I2C, `I2c` |
-//! | [`camera_link`] | OpenMV tag camera frames | UART bytes (COBS) |
 //! | [`depth`] | ST VL53L5CX 8x8 zone reduction | none: a pure function of a frame |
 //! | [`motors`] | DRV8833 dual H-bridge | 4 PWM channels, `SetDutyCycle` |
 //!
@@ -25,12 +24,14 @@
 //! clockwise seen from above (heading 0 faces +y); beam and pixel orders
 //! run from the robot's left to its right.
 //!
+//! The tag camera's UART frames are wire, not a part: they live in the `wire` crate
+//! (`wire::camera_link`).
+//!
 //! Enable the `defmt` feature for `defmt::Format` on every public type.
 #![cfg_attr(not(test), no_std)]
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 
-pub mod camera_link;
 pub mod depth;
 pub mod flow;
 pub mod imu;

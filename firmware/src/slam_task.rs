@@ -22,9 +22,9 @@ use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::channel::Channel;
 use embassy_sync::watch::{Receiver, Watch};
 use embassy_time::{Duration, Instant, Ticker};
-use slam_core::telemetry::{encode, FirmwareVersion, Message, Schedule, Streamer, MAX_FRAME_LEN};
 use slam_core::{Pose, SeedSlam, SensorFrame, SlamConfig, StepReport};
 use static_cell::StaticCell;
+use wire::telemetry::{encode, FirmwareVersion, Message, Schedule, Streamer, MAX_FRAME_LEN};
 
 use crate::health::HEALTH;
 use crate::inputs::Inputs;

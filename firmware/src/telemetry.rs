@@ -2,7 +2,7 @@
 //! UART1 TX (GP8) at 921600 baud 8N1, by DMA (channel 2, UART1 TX DREQ), and offers a copy
 //! of each to the USB serial port ([`crate::usb`]).
 //!
-//! The frames are the core's telemetry stream (`slam_core::telemetry`: postcard body,
+//! The frames are the telemetry stream (`wire::telemetry`: postcard body,
 //! CRC-16, COBS, `0x00` after every frame); what goes out when is set by
 //! [`crate::slam_task::TELEMETRY_SCHEDULE`]. This task never waits on the SLAM loop and
 //! the loop never waits on it: frames queue in a bounded channel and the loop drops (and

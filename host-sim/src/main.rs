@@ -172,7 +172,7 @@ fn cmd_view(args: ViewArgs) -> Result<(), Failure> {
             2,
             format!(
                 "{shown}: no telemetry frames in it ({} bad frames): is it a BugBot telemetry stream?",
-                summary.bad_frames.total
+                summary.bad_frames.total()
             ),
         ));
     }

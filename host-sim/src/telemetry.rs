@@ -1,4 +1,4 @@
-//! The host's end of the robot's telemetry stream (`slam_core::telemetry`).
+//! The host's end of the robot's telemetry stream (`wire::telemetry`).
 //!
 //! [`TelemetryWriter`] is the simulator's sink: it calls the same [`Streamer`] and
 //! [`encode`] the firmware calls, so `host-sim run --telemetry FILE` writes the bytes a
@@ -18,15 +18,16 @@ use crate::score::{map_counts, out_of_place_mask, pose_errors, real_mask, PoseEr
 use crate::truth::{route_start_s, truth_at, TruthSample};
 use crate::world::World;
 use serde::Serialize;
-use slam_core::telemetry::{
-    encode, CellScale, DecoderStats, FirmwareVersion, Hello, MapRows, Message, Schedule,
-    SensorHealth, StreamDecoder, Streamer, Tick, MAX_FRAME_LEN,
-};
 use slam_core::{Counters, FixOutcome, GridGeometry, GridMap, Occupancy, StepReport};
 use std::fmt;
 use std::io::{self, Read};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
+use wire::framing::BadFrames;
+use wire::telemetry::{
+    encode, serialize_counters, CellScale, DecoderStats, FirmwareVersion, Hello, MapRows, Message, Schedule,
+    SensorHealth, StreamDecoder, Streamer, Tick, MAX_FRAME_LEN,
+};
 
 /// The firmware version the simulator claims in its `Hello`: this crate's.
 pub fn simulator_firmware() -> FirmwareVersion {
@@ -393,15 +394,7 @@ impl TelemetryRecorder {
             map_rows_refused: self.map_rows_refused,
             restarts: self.restarts,
             frames_ok: stats.frames_ok,
-            bad_frames: BadFrames {
-                total: stats.bad_frames(),
-                overlong: stats.overlong,
-                bad_cobs: stats.bad_cobs,
-                too_short: stats.too_short,
-                bad_crc: stats.bad_crc,
-                bad_version: stats.bad_version,
-                bad_body: stats.bad_body,
-            },
+            bad_frames: stats.bad_frames,
         }
     }
 }
@@ -445,25 +438,6 @@ pub struct FinalPose {
     pub heading_deg: f64,
 }
 
-/// Frames the decoder dropped, by kind.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-pub struct BadFrames {
-    /// All of them.
-    pub total: u32,
-    /// No delimiter within the longest frame.
-    pub overlong: u32,
-    /// Stuffing that does not add up.
-    pub bad_cobs: u32,
-    /// Too short for a version byte and a CRC.
-    pub too_short: u32,
-    /// CRC mismatch.
-    pub bad_crc: u32,
-    /// Another layout's version byte.
-    pub bad_version: u32,
-    /// Good CRC, unreadable message.
-    pub bad_body: u32,
-}
-
 /// What a telemetry stream held: printed by `host-sim view`, as text or JSON.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Summary {
@@ -478,6 +452,7 @@ pub struct Summary {
     /// The last tick's pose.
     pub final_pose: Option<FinalPose>,
     /// The last tick's counters.
+    #[serde(serialize_with = "serialize_counters")]
     pub counters: Option<Counters>,
     /// The latest sensor health.
     pub health: Option<SensorHealth>,
@@ -508,7 +483,7 @@ pub struct Summary {
     pub restarts: u32,
     /// Good frames.
     pub frames_ok: u32,
-    /// Dropped frames.
+    /// Dropped frames, by kind (serialised with their `total`).
     pub bad_frames: BadFrames,
 }
 
@@ -638,7 +613,7 @@ impl fmt::Display for Summary {
         write!(
             f,
             "frames: {} good, {} bad ({} overlong, {} COBS, {} short, {} CRC, {} version, {} body); map chunks {} placed, {} refused; {} restarts",
-            self.frames_ok, b.total, b.overlong, b.bad_cobs, b.too_short, b.bad_crc,
+            self.frames_ok, b.total(), b.overlong, b.bad_cobs, b.too_short, b.bad_crc,
             b.bad_version, b.bad_body, self.map_rows, self.map_rows_refused, self.restarts
         )
     }

@@ -56,7 +56,7 @@ fn the_viewer_gets_the_run_back() {
 
     let recording = decode_bytes(&bytes);
     let stats = *recording.decoder.stats();
-    assert_eq!(stats.bad_frames(), 0, "{stats:?}");
+    assert_eq!(stats.bad_frames.total(), 0, "{stats:?}");
     assert!(!recording.decoder.has_partial_frame());
     let recorder = &recording.recorder;
     assert_eq!(recorder.tick_count(), run_ticks);
@@ -174,7 +174,7 @@ fn garbage_in_the_stream_costs_only_its_own_frames() {
     let recording = decode_bytes(&dirty);
     let stats = *recording.decoder.stats();
     assert_eq!(stats.frames_ok, clean_frames - flipped, "{stats:?}");
-    assert_eq!(stats.bad_frames(), flipped + noisy, "{stats:?}");
+    assert_eq!(stats.bad_frames.total(), flipped + noisy, "{stats:?}");
 
     // The CLI reads it too, reports the bad frames and still draws.
     let file = dir.join("dirty.bin");
@@ -231,7 +231,7 @@ fn bad_input_is_refused_cleanly() {
 #[test]
 fn a_late_viewer_waits_for_hello_and_refuses_chunks_off_the_grid() {
     use host_sim::telemetry::TelemetryRecorder;
-    use slam_core::telemetry::{CellChunk, FirmwareVersion, Hello, MapRows, Message};
+    use wire::telemetry::{CellChunk, FirmwareVersion, Hello, MapRows, Message};
     let rows = |first_row, first_column, n: usize| {
         Message::MapRows(MapRows {
             first_row,

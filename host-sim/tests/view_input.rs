@@ -8,7 +8,7 @@ mod common;
 
 use common::{host_sim, seed_path};
 use host_sim::telemetry::{decode_bytes, TelemetryRecorder, MAX_GRID_SIDE};
-use slam_core::telemetry::{
+use wire::telemetry::{
     encode, CellChunk, FirmwareVersion, Hello, MapRows, Message, Tick, MAX_FRAME_LEN,
 };
 use slam_core::{Counters, FixOutcome};

@@ -13,7 +13,6 @@
 
 pub mod angle;
 pub mod frame;
-pub mod framing;
 pub mod grid;
 pub mod history;
 #[cfg(test)]
@@ -22,7 +21,6 @@ pub mod odometry;
 pub mod pose;
 pub mod slam;
 pub mod tagfix;
-pub mod telemetry;
 
 pub use angle::Angle;
 pub use frame::{

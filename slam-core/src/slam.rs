@@ -129,11 +129,8 @@ impl SlamConfig {
     }
 }
 
-/// Running totals since start, for telemetry and tests.
-///
-/// The telemetry stream carries these field for field (postcard, in this order): adding a
-/// field changes the wire layout, so bump `telemetry::WIRE_VERSION` with it.
-#[derive(Clone, Copy, PartialEq, Eq, Debug, Default, serde::Serialize, serde::Deserialize)]
+/// Running totals since start: what the robot reports and the tests check.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Counters {
     /// Steps run.

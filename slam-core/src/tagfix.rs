@@ -133,7 +133,7 @@ impl FixConfig {
 }
 
 /// Why a fix was not taken.
-#[derive(Clone, Copy, PartialEq, Eq, Debug, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum FixRejection {
     /// The tags' baseline is too short, or the seen distance between them disagrees with
@@ -147,7 +147,7 @@ pub enum FixRejection {
 }
 
 /// What the fix step did this tick.
-#[derive(Clone, Copy, PartialEq, Eq, Debug, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum FixOutcome {
     /// Fewer than two known tags were in view (or fixes are off).

@@ -3,20 +3,20 @@
 //! with the instant its frame arrived.
 //!
 //! The UART is *buffered* (interrupt driven into a ring buffer), not DMA: bytes that arrive
-//! while the task is busy are kept, and it is the RX mode the emulator supports once its
-//! `UARTDMACR` and TX-interrupt gaps are covered (see `shared/EMULATOR.md`).
+//! while the task is busy are kept, and it is an RX mode the emulator harness
+//! (`tests/emulator`, which models the PL011's FIFOs and `UARTDMACR`) runs.
 //!
-//! Frames are the camera link's COBS + CRC frames (`drivers::camera_link`); the decoder
+//! Frames are the camera link's COBS + CRC frames (`wire::camera_link`); the decoder
 //! resynchronises at the next `0x00` after line noise or a cut frame. Each good frame, even
 //! one with no tags, replaces the previous picture: a picture with no tags in view is news
 //! too (the tags left the view), and the SLAM tick treats an empty list as "no fix".
 
-use drivers::camera_link::{FrameDecoder, FrameRepr};
 use embassy_rp::uart::{self, BufferedUart};
 use embassy_time::Instant;
 use embedded_io_async::Read;
 use slam_core::{TagDetection, TagDetections};
 use static_cell::ConstStaticCell;
+use wire::camera_link::{FrameDecoder, FrameRepr};
 
 use crate::board::{CameraLinkPins, CAMERA_BAUD};
 use crate::health::HEALTH;
@@ -73,7 +73,7 @@ pub async fn camera_task(pins: CameraLinkPins, irqs: Irqs, tags: &'static TagInb
             });
         }
         // The decoder counts rejects by kind; the health struct wants the total.
-        let rejected = decoder.stats().rejected();
+        let rejected = decoder.stats().bad_frames.total();
         HEALTH
             .camera_bad_frames
             .add(rejected.wrapping_sub(rejected_seen));

@@ -15,7 +15,7 @@
 //!   tick maps the scan at the pose of that moment), to core 0 through `ZONES` (a `Signal`: the
 //!   newest frame wins; it is `CriticalSectionRawMutex`-guarded, which on the RP2040 is a
 //!   hardware spinlock shared by both cores). A failed start-up is counted in
-//!   `depth_init_failures` (on the wire, `depth_start_failures`: a sensor that never
+//!   `depth_start_failures` (a sensor that never
 //!   starts shows as that count climbing), a read error in `depth_bus_errors`; start-up
 //!   is retried with a doubling back-off, and after
 //!   `ERRORS_BEFORE_RESTART` read errors in a row the sensor is power-cycled (LPn) and
@@ -102,7 +102,7 @@ mod ranging {
         max_backoff: MAX_BACKOFF,
         pace: Pace::After(POLL_PERIOD),
         errors_before_restart: ERRORS_BEFORE_RESTART,
-        start_failures: &HEALTH.depth_init_failures,
+        start_failures: &HEALTH.depth_start_failures,
         bus_errors: &HEALTH.depth_bus_errors,
     };
 

@@ -50,7 +50,7 @@ static SUPERVISOR: Supervisor = Supervisor {
     max_backoff: MAX_BACKOFF,
     pace: Pace::Every(READ_PERIOD),
     errors_before_restart: ERRORS_BEFORE_RESTART,
-    start_failures: &HEALTH.flow_init_failures,
+    start_failures: &HEALTH.flow_start_failures,
     bus_errors: &HEALTH.flow_bus_errors,
 };
 

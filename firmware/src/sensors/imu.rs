@@ -65,7 +65,7 @@ static SUPERVISOR: Supervisor = Supervisor {
     max_backoff: MAX_BACKOFF,
     pace: Pace::Every(SAMPLE_PERIOD),
     errors_before_restart: ERRORS_BEFORE_RESTART,
-    start_failures: &HEALTH.gyro_init_failures,
+    start_failures: &HEALTH.gyro_start_failures,
     bus_errors: &HEALTH.gyro_bus_errors,
 };
 

@@ -1,6 +1,7 @@
 //! A checked view over a decoded (un-stuffed) camera frame.
 
-use super::{crc16_ccitt_false, WireError, CRC_LEN, DETECTION_LEN, HEADER_LEN, MAX_DETECTIONS};
+use super::{WireError, CRC_LEN, DETECTION_LEN, HEADER_LEN, MAX_DETECTIONS};
+use crate::framing::crc16;
 
 /// Field offsets inside a decoded frame.
 mod field {
@@ -131,7 +132,7 @@ impl<T: AsRef<[u8]>> Packet<T> {
     /// Whether the sent CRC matches the bytes before it.
     pub fn verify_crc(&self) -> bool {
         let body = self.buffer.as_ref().get(..self.crc_at()).unwrap_or(&[]);
-        crc16_ccitt_false(body) == self.crc()
+        crc16(body) == self.crc()
     }
 }
 
@@ -182,7 +183,7 @@ impl<T: AsRef<[u8]> + AsMut<[u8]>> Packet<T> {
     /// Compute and write the CRC over everything before it. Call last.
     pub fn fill_crc(&mut self) {
         let at = self.crc_at();
-        let crc = crc16_ccitt_false(self.buffer.as_ref().get(..at).unwrap_or(&[]));
+        let crc = crc16(self.buffer.as_ref().get(..at).unwrap_or(&[]));
         self.set_u16(at, crc);
     }
 }

@@ -1,8 +1,9 @@
 //! Camera frame byte fixtures: parse, emit, round trip, bad input.
 
-use drivers::camera_link::{
-    cobs, encode_frame, FrameDecoder, FrameRepr, Packet, TagDetection, WireError, MAX_ENCODED_LEN,
+use wire::camera_link::{
+    encode_frame, FrameDecoder, FrameRepr, Packet, TagDetection, WireError, MAX_ENCODED_LEN,
 };
+use wire::framing::{cobs_encode, cobs_max_len, crc16};
 
 /// Version 1, counter 0x0102, two detections:
 /// tag 5 at (16000, 12000) cp, 1500 mm; tag 256 at (0, 24000) cp, 0 mm.
@@ -29,8 +30,8 @@ fn fixture_repr() -> FrameRepr {
 
 /// Encoded frame with delimiter, from raw (possibly invalid) frame bytes.
 fn stuffed(raw: &[u8]) -> Vec<u8> {
-    let mut out = vec![0u8; cobs::max_encoded_len(raw.len())];
-    let n = cobs::encode(raw, &mut out).unwrap();
+    let mut out = vec![0u8; cobs_max_len(raw.len())];
+    let n = cobs_encode(raw, &mut out).unwrap();
     out.truncate(n);
     out.push(0);
     out
@@ -39,7 +40,7 @@ fn stuffed(raw: &[u8]) -> Vec<u8> {
 /// A raw frame with a correct CRC over `body`.
 fn with_crc(body: &[u8]) -> Vec<u8> {
     let mut v = body.to_vec();
-    v.extend(drivers::camera_link::crc16_ccitt_false(body).to_le_bytes());
+    v.extend(crc16(body).to_le_bytes());
     v
 }
 
@@ -78,7 +79,7 @@ fn encode_fixture_and_round_trip() {
     let frames: Vec<_> = decoder.feed(&out[..n]).collect();
     assert_eq!(frames, vec![fixture_repr()]);
     assert_eq!(decoder.stats().frames_ok, 1);
-    assert_eq!(decoder.stats().rejected(), 0);
+    assert_eq!(decoder.stats().bad_frames.total(), 0);
 }
 
 #[test]
@@ -161,10 +162,11 @@ fn too_many_detections() {
     // classified by its count.
     let mut decoder = FrameDecoder::new();
     assert_eq!(decoder.feed(&stuffed(&raw)).count(), 0);
-    assert_eq!(decoder.stats().overlong, 1);
+    assert_eq!(decoder.stats().bad_frames.overlong, 1);
     assert_eq!(decoder.feed(&stuffed(&with_crc(&[1, 0, 0, 9]))).count(), 0);
-    assert_eq!(decoder.stats().too_many_detections, 1);
-    assert_eq!(decoder.stats().rejected(), 2);
+    // Too many detections is a bad body.
+    assert_eq!(decoder.stats().bad_frames.bad_body, 1);
+    assert_eq!(decoder.stats().bad_frames.total(), 2);
 }
 
 #[test]
@@ -207,7 +209,7 @@ fn garbage_then_good_frame() {
     assert_eq!(frames, vec![fixture_repr()]);
     let stats = decoder.stats();
     assert_eq!(stats.frames_ok, 1);
-    assert_eq!(stats.rejected(), 1);
+    assert_eq!(stats.bad_frames.total(), 1);
 }
 
 #[test]
@@ -219,7 +221,7 @@ fn mid_frame_start_resynchronises() {
     stream.push(0);
     let mut decoder = FrameDecoder::new();
     assert_eq!(decoder.feed(&stream).count(), 1);
-    assert_eq!(decoder.stats().rejected(), 1);
+    assert_eq!(decoder.stats().bad_frames.total(), 1);
 }
 
 #[test]
@@ -234,9 +236,10 @@ fn truncated_and_corrupt_frames_are_counted_by_kind() {
     stream.extend([0x00, 0x00]); // empty frames: ignored
     let mut decoder = FrameDecoder::new();
     assert_eq!(decoder.feed(&stream).count(), 0);
-    let s = decoder.stats();
-    assert_eq!((s.truncated, s.bad_crc, s.bad_cobs), (1, 1, 1));
-    assert_eq!(s.rejected(), 3);
+    let s = decoder.stats().bad_frames;
+    // A truncated frame counts as too short.
+    assert_eq!((s.too_short, s.bad_crc, s.bad_cobs), (1, 1, 1));
+    assert_eq!(s.total(), 3);
 }
 
 #[test]
@@ -250,8 +253,8 @@ fn overlong_input_is_dropped_and_counted() {
         decoder.feed(&stream).collect::<Vec<_>>(),
         vec![fixture_repr()]
     );
-    assert_eq!(decoder.stats().overlong, 1);
-    assert_eq!(decoder.stats().rejected(), 1);
+    assert_eq!(decoder.stats().bad_frames.overlong, 1);
+    assert_eq!(decoder.stats().bad_frames.total(), 1);
 }
 
 #[test]
@@ -275,7 +278,7 @@ fn frames_split_across_feeds() {
 /// The OpenMV script must agree with this crate on the link's constants.
 #[test]
 fn openmv_script_matches_link_constants() {
-    let script = include_str!("../camera/openmv_tags.py");
+    let script = include_str!("../../drivers/camera/openmv_tags.py");
     for needle in [
         "VERSION = 1",
         "MAX_DETECTIONS = 8",

@@ -1,8 +1,9 @@
 //! The parsed camera frame and its encoder.
 
 use super::{
-    cobs, Packet, WireError, MAX_CX_CENTIPX, MAX_CY_CENTIPX, MAX_DETECTIONS, MAX_FRAME_LEN, VERSION,
+    Packet, WireError, MAX_CX_CENTIPX, MAX_CY_CENTIPX, MAX_DETECTIONS, MAX_FRAME_LEN, VERSION,
 };
+use crate::framing::cobs_encode;
 
 /// One AprilTag seen by the camera.
 ///
@@ -149,7 +150,7 @@ pub fn encode_frame(frame: &FrameRepr, out: &mut [u8]) -> Result<usize, WireErro
     let len = frame.buffer_len();
     let body = raw.get_mut(..len).ok_or(WireError::BadLength)?;
     frame.emit(&mut Packet::new_unchecked(&mut *body));
-    let n = cobs::encode(body, out)?;
+    let n = cobs_encode(body, out)?;
     *out.get_mut(n).ok_or(WireError::BadLength)? = 0;
     Ok(n + 1)
 }

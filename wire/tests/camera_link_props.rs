@@ -1,9 +1,9 @@
 //! The fuzz target's properties, run by `cargo test` through proptest.
 
-use drivers::camera_link::{
+use proptest::prelude::*;
+use wire::camera_link::{
     encode_frame, FrameDecoder, FrameRepr, Packet, TagDetection, MAX_DETECTIONS, MAX_ENCODED_LEN,
 };
-use proptest::prelude::*;
 
 fn detection() -> impl Strategy<Value = TagDetection> {
     (any::<u16>(), 0..=32_000u16, 0..=24_000u16, any::<u16>())
@@ -75,7 +75,7 @@ proptest! {
         let delimiters = bytes.iter().filter(|&&b| b == 0).count() as u32;
         let stats = decoder.stats();
         prop_assert_eq!(frames, stats.frames_ok);
-        prop_assert!(stats.frames_ok + stats.rejected() <= delimiters);
+        prop_assert!(stats.frames_ok + stats.bad_frames.total() <= delimiters);
     }
 
     /// Any valid frame survives encoding and arrives intact after any

@@ -1,32 +1,4 @@
-//! Byte framing shared by every serial link of the robot: COBS stuffing and CRC-16.
-//!
-//! COBS removes every `0x00` from a frame so `0x00` can end it on the wire, and a
-//! receiver that joins mid-stream or meets garbage resynchronises at the next `0x00`.
-//! The camera co-processor's link and the telemetry stream both use it.
-
-/// CRC-16/CCITT-FALSE: polynomial `0x1021`, initial `0xFFFF`, MSB first, no final XOR;
-/// `b"123456789"` gives `0x29B1`.
-///
-/// Bit by bit rather than by table: frames are under 150 bytes and the M0+'s flash is
-/// better spent elsewhere.
-pub const fn crc16(data: &[u8]) -> u16 {
-    let mut crc: u16 = 0xFFFF;
-    let mut i = 0;
-    while i < data.len() {
-        crc ^= (data[i] as u16) << 8;
-        let mut bit = 0;
-        while bit < 8 {
-            crc = if crc & 0x8000 != 0 {
-                (crc << 1) ^ 0x1021
-            } else {
-                crc << 1
-            };
-            bit += 1;
-        }
-        i += 1;
-    }
-    crc
-}
+//! Consistent Overhead Byte Stuffing: no `0x00` inside a frame, so `0x00` can end it.
 
 /// Why COBS could not stuff or un-stuff a frame.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -139,71 +111,6 @@ pub fn cobs_decode_in_place(buf: &mut [u8]) -> Result<usize, CobsError> {
     Ok(write)
 }
 
-/// What a delimiter ended, in [`FrameCollector::push`].
-#[derive(Debug, PartialEq, Eq)]
-pub enum Collected<'a> {
-    /// A stuffed frame, delimiter removed; the collector is ready for the next one.
-    Frame(&'a mut [u8]),
-    /// The frame ran past the buffer and was dropped.
-    Overlong,
-}
-
-/// Splits a byte stream into stuffed frames at each `0x00`, in a fixed buffer of `N` bytes.
-///
-/// A receiver that joins mid-stream, or meets garbage, loses at most the frame it was in:
-/// the next delimiter starts over. Empty frames (`0x00 0x00`) are skipped, so a sender may
-/// send a lone delimiter to flush a receiver's partial frame.
-#[derive(Clone, Debug)]
-pub struct FrameCollector<const N: usize> {
-    buf: [u8; N],
-    len: usize,
-    overflowed: bool,
-}
-
-impl<const N: usize> Default for FrameCollector<N> {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
-impl<const N: usize> FrameCollector<N> {
-    /// An empty collector.
-    pub const fn new() -> Self {
-        FrameCollector {
-            buf: [0; N],
-            len: 0,
-            overflowed: false,
-        }
-    }
-
-    /// Feeds one byte: `Some` when it is a delimiter ending a non-empty frame.
-    pub fn push(&mut self, byte: u8) -> Option<Collected<'_>> {
-        if byte != 0 {
-            match self.buf.get_mut(self.len) {
-                Some(slot) => {
-                    *slot = byte;
-                    self.len += 1;
-                }
-                None => self.overflowed = true,
-            }
-            return None;
-        }
-        let len = core::mem::replace(&mut self.len, 0);
-        if core::mem::replace(&mut self.overflowed, false) {
-            return Some(Collected::Overlong);
-        }
-        match self.buf.get_mut(..len) {
-            Some(frame) if !frame.is_empty() => Some(Collected::Frame(frame)),
-            _ => None,
-        }
-    }
-
-    /// Whether bytes of an unfinished frame are waiting for their delimiter.
-    pub fn has_partial(&self) -> bool {
-        self.len > 0 || self.overflowed
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -222,16 +129,12 @@ mod tests {
     }
 
     #[test]
-    fn crc_check_value() {
-        assert_eq!(crc16(b"123456789"), 0x29B1);
-        assert_eq!(crc16(&[]), 0xFFFF);
-    }
-
-    #[test]
     fn known_vectors() {
         let mut enc = [0u8; 16];
         let n = cobs_encode(&[0x11, 0x22, 0x00, 0x33], &mut enc).unwrap();
         assert_eq!(&enc[..n], &[0x03, 0x11, 0x22, 0x02, 0x33]);
+        let n = cobs_encode(&[0x11, 0x00], &mut enc).unwrap();
+        assert_eq!(&enc[..n], &[0x02, 0x11, 0x01]);
         let n = cobs_encode(&[0x00], &mut enc).unwrap();
         assert_eq!(&enc[..n], &[0x01, 0x01]);
         let n = cobs_encode(&[], &mut enc).unwrap();
@@ -251,25 +154,21 @@ mod tests {
     }
 
     #[test]
-    fn collector_splits_at_delimiters_and_drops_overlong() {
-        let mut c: FrameCollector<4> = FrameCollector::new();
-        assert_eq!(c.push(0), None, "empty frames are skipped");
-        for b in [1, 2, 3] {
-            assert_eq!(c.push(b), None);
+    fn long_runs_and_zeros() {
+        for raw in [
+            std::vec![0u8; 5],
+            std::vec![7u8; 254],
+            std::vec![7u8; 253],
+            std::vec![7u8; 255],
+            (0..=255u8).cycle().take(600).collect::<std::vec::Vec<u8>>(),
+        ] {
+            let mut enc = std::vec![0u8; cobs_len(&raw)];
+            let n = cobs_encode(&raw, &mut enc).expect("room");
+            assert_eq!(n, enc.len());
+            assert!(!enc.contains(&0));
+            let m = cobs_decode_in_place(&mut enc).expect("decodes");
+            assert_eq!(&enc[..m], &raw[..]);
         }
-        assert!(c.has_partial());
-        assert_eq!(c.push(0), Some(Collected::Frame(&mut [1, 2, 3])));
-        assert!(!c.has_partial());
-        for b in [9; 7] {
-            assert_eq!(c.push(b), None);
-        }
-        assert_eq!(c.push(0), Some(Collected::Overlong));
-        c.push(5);
-        assert_eq!(
-            c.push(0),
-            Some(Collected::Frame(&mut [5])),
-            "recovers after an overlong frame"
-        );
     }
 
     #[test]

@@ -16,29 +16,29 @@
 //! | 6 + 8 i | 2 | tag centre x, centipixels, `0..=32000` (320 px image) |
 //! | 8 + 8 i | 2 | tag centre y, centipixels, `0..=24000` (240 px image) |
 //! | 10 + 8 i | 2 | distance to the tag, millimetres |
-//! | 4 + 8 n | 2 | CRC-16/CCITT-FALSE over every byte before it |
+//! | 4 + 8 n | 2 | CRC-16/CCITT-FALSE ([`crc16`](crate::framing::crc16)) over every byte before it |
 //!
 //! Pixel x runs from the image's left (the robot's left, camera facing
 //! forward, not mirrored) to its right; y runs top to bottom.
 //!
 //! # Layers (the smoltcp way)
 //!
-//! - [`cobs`]: byte stuffing, encode and decode into caller buffers.
+//! - [`crate::framing`]: byte stuffing and the CRC, shared with the telemetry.
 //! - [`Packet`]: a checked view over decoded bytes; after
 //!   [`Packet::new_checked`] no accessor can panic.
 //! - [`FrameRepr`]: the parsed high-level frame, with `parse` and `emit`.
-//! - [`FrameDecoder`]: a fixed-buffer stream decoder fed UART bytes.
+//! - [`FrameDecoder`]: a fixed-buffer stream decoder fed UART bytes, counting what it
+//!   drops in the shared [`DecoderStats`](crate::framing::DecoderStats).
 
-pub mod cobs;
 mod decoder;
 mod packet;
 mod repr;
 
-pub use decoder::{DecoderStats, FrameDecoder, Frames};
+pub use decoder::{FrameDecoder, Frames};
 pub use packet::Packet;
 pub use repr::{encode_frame, FrameRepr, TagDetection};
-/// CRC-16/CCITT-FALSE over the frame body (the shared framing's CRC).
-pub use slam_core::framing::crc16 as crc16_ccitt_false;
+
+use crate::framing::{cobs_max_len, CobsError, FrameError};
 
 /// The only frame version this crate understands.
 pub const VERSION: u8 = 1;
@@ -53,7 +53,7 @@ pub const CRC_LEN: usize = 2;
 /// Longest decoded frame, in bytes (8 detections).
 pub const MAX_FRAME_LEN: usize = HEADER_LEN + MAX_DETECTIONS * DETECTION_LEN + CRC_LEN;
 /// Longest COBS-encoded frame, without its `0x00` delimiter.
-pub const MAX_ENCODED_LEN: usize = cobs::max_encoded_len(MAX_FRAME_LEN);
+pub const MAX_ENCODED_LEN: usize = cobs_max_len(MAX_FRAME_LEN);
 /// Largest tag centre x, centipixels (320 px wide image).
 pub const MAX_CX_CENTIPX: u16 = 32_000;
 /// Largest tag centre y, centipixels (240 px high image).
@@ -78,4 +78,49 @@ pub enum WireError {
     BadCobs,
     /// A centre coordinate outside the image.
     ValueOutOfRange,
+}
+
+impl From<CobsError> for WireError {
+    fn from(e: CobsError) -> Self {
+        match e {
+            CobsError::BufferTooSmall => WireError::BadLength,
+            CobsError::Malformed => WireError::BadCobs,
+        }
+    }
+}
+
+/// The shared class each rejection is counted under: a frame too long for its count,
+/// too many detections or a centre outside the image are all a bad body.
+impl From<WireError> for FrameError {
+    fn from(e: WireError) -> Self {
+        match e {
+            WireError::Truncated => FrameError::TooShort,
+            WireError::BadLength | WireError::TooManyDetections | WireError::ValueOutOfRange => {
+                FrameError::Body
+            }
+            WireError::BadCrc => FrameError::Crc,
+            WireError::BadVersion => FrameError::Version,
+            WireError::BadCobs => FrameError::Cobs,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::framing::{cobs_decode, cobs_encode};
+
+    #[test]
+    fn cobs_errors_map_to_the_link_errors() {
+        let mut dec = [0u8; 16];
+        let decode =
+            |src: &[u8], dst: &mut [u8]| -> Result<usize, WireError> { Ok(cobs_decode(src, dst)?) };
+        assert_eq!(decode(&[0x05, 1, 2], &mut dec), Err(WireError::BadCobs));
+        let mut small = [0u8; 2];
+        assert_eq!(decode(&[4, 1, 2, 3], &mut small), Err(WireError::BadLength));
+        assert_eq!(
+            cobs_encode(&[1, 2, 3], &mut small).map_err(WireError::from),
+            Err(WireError::BadLength)
+        );
+    }
 }

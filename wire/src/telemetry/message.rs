@@ -1,0 +1,171 @@
+//! The telemetry messages: what each carries, in the order postcard lays it out.
+
+use super::core_layout::{CountersDef, FixOutcomeDef};
+use super::{CellScale, SensorHealth, MAX_CHUNK_CELLS};
+use serde::{Deserialize, Serialize};
+use slam_core::{Angle, Counters, FixOutcome, GridMap, Pose, Staleness, StepReport};
+
+/// The firmware's version, sent in every [`Hello`].
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FirmwareVersion {
+    /// Incompatible changes.
+    pub major: u8,
+    /// Added features.
+    pub minor: u8,
+    /// Fixes.
+    pub patch: u8,
+}
+
+/// What a viewer needs before it can draw anything: the grid and who sent it.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Hello {
+    /// Columns in the grid.
+    pub width: u16,
+    /// Rows in the grid.
+    pub height: u16,
+    /// Side of a cell, millimetres.
+    pub cell_mm: i32,
+    /// Map x of the grid's lower-left corner, millimetres.
+    pub origin_x_mm: i32,
+    /// Map y of the grid's lower-left corner, millimetres.
+    pub origin_y_mm: i32,
+    /// A cell below `-free_below` is free, in cell units (log odds / 16).
+    pub free_below: i8,
+    /// A cell above `occupied_above` is occupied, in cell units (log odds / 16).
+    pub occupied_above: i8,
+    /// Which firmware is talking.
+    pub firmware: FirmwareVersion,
+}
+
+impl Hello {
+    /// The `Hello` describing `map`. Dimensions past `u16::MAX` saturate (no such grid
+    /// fits in an RP2040's 264 KB anyway).
+    pub fn new<const W: usize, const H: usize>(
+        map: &GridMap<W, H>,
+        firmware: FirmwareVersion,
+    ) -> Hello {
+        let g = map.geometry();
+        let scale = CellScale::new(map.evidence());
+        Hello {
+            width: u16::try_from(W).unwrap_or(u16::MAX),
+            height: u16::try_from(H).unwrap_or(u16::MAX),
+            cell_mm: g.cell_mm,
+            origin_x_mm: g.origin_x_mm,
+            origin_y_mm: g.origin_y_mm,
+            free_below: scale.free_below,
+            occupied_above: scale.occupied_above,
+            firmware,
+        }
+    }
+
+    /// The thresholds to classify this grid's cells with.
+    pub fn scale(&self) -> CellScale {
+        CellScale {
+            free_below: self.free_below,
+            occupied_above: self.occupied_above,
+        }
+    }
+}
+
+/// One SLAM tick: the pose, the fix and the running totals.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Tick {
+    /// Steps run, this one included (the core's `counters.ticks`).
+    pub tick: u32,
+    /// Time of the tick since start, milliseconds (wraps after 49 days).
+    pub time_ms: u32,
+    /// Pose x, micrometres.
+    pub x_um: i32,
+    /// Pose y, micrometres.
+    pub y_um: i32,
+    /// Heading as a binary angle: 2^32 per turn, clockwise from +y.
+    pub heading_bits: u32,
+    /// Whether a tag fix was taken, rejected or not tried.
+    #[serde(with = "FixOutcomeDef")]
+    pub fix: FixOutcome,
+    /// Inputs missing this tick: bit 0 flow, bit 1 gyro, bit 2 depth ([`Tick::staleness`]).
+    pub stale: u8,
+    /// Grid cells written this tick.
+    pub cells_written: u32,
+    /// The core's totals since start.
+    #[serde(with = "CountersDef")]
+    pub counters: Counters,
+}
+
+/// Bit of [`Tick::stale`]: no flow reading this tick.
+pub const STALE_FLOW: u8 = 1 << 0;
+/// Bit of [`Tick::stale`]: no gyro reading this tick.
+pub const STALE_GYRO: u8 = 1 << 1;
+/// Bit of [`Tick::stale`]: no depth scan this tick.
+pub const STALE_DEPTH: u8 = 1 << 2;
+
+impl Tick {
+    /// The `Tick` for a step's report, at `time_ms` since start.
+    pub fn new(time_ms: u32, report: &StepReport) -> Tick {
+        let s = &report.stale;
+        Tick {
+            tick: report.counters.ticks,
+            time_ms,
+            x_um: report.pose.x_um,
+            y_um: report.pose.y_um,
+            heading_bits: report.pose.heading.bits(),
+            fix: report.fix,
+            stale: (u8::from(s.flow) * STALE_FLOW)
+                | (u8::from(s.gyro) * STALE_GYRO)
+                | (u8::from(s.depth) * STALE_DEPTH),
+            cells_written: report.cells_written,
+            counters: report.counters,
+        }
+    }
+
+    /// The pose this tick mapped at.
+    pub fn pose(&self) -> Pose {
+        Pose {
+            x_um: self.x_um,
+            y_um: self.y_um,
+            heading: Angle::from_bits(self.heading_bits),
+        }
+    }
+
+    /// The stale bits as the core's flags; unknown bits are ignored.
+    pub fn staleness(&self) -> Staleness {
+        Staleness {
+            flow: self.stale & STALE_FLOW != 0,
+            gyro: self.stale & STALE_GYRO != 0,
+            depth: self.stale & STALE_DEPTH != 0,
+        }
+    }
+}
+
+/// A run of map cells, in cell units; see [the telemetry module](super) for the scale.
+#[derive(Clone, PartialEq, Eq, Debug, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MapRows {
+    /// Row of the first cell (0 is the lowest y).
+    pub first_row: u16,
+    /// Column of the first cell; the run carries on at column 0 of the next row.
+    pub first_column: u16,
+    /// The cells, row-major.
+    pub cells: CellChunk,
+}
+
+/// Up to [`MAX_CHUNK_CELLS`] cells, in cell units: postcard lays it out as a varint count
+/// and one `i8` each, and refuses a count past the capacity.
+pub type CellChunk = heapless::Vec<i8, MAX_CHUNK_CELLS, u8>;
+
+/// Everything the robot sends.
+#[derive(Clone, PartialEq, Eq, Debug, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Message {
+    /// The grid and the firmware (variant 0).
+    Hello(Hello),
+    /// One tick (variant 1).
+    Tick(Tick),
+    /// A chunk of the map (variant 2).
+    MapRows(MapRows),
+    /// Sensor fault counters (variant 3).
+    Health(SensorHealth),
+}

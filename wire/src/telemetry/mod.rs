@@ -1,0 +1,104 @@
+//! The robot's telemetry stream: framed binary messages from the robot to a viewer.
+//!
+//! The robot sends, on a UART or USB CDC link, a [`Message::Hello`] at start and every
+//! few seconds (so a viewer can join late), a [`Message::Tick`] every SLAM tick, a chunk
+//! of the map ([`Message::MapRows`]) every tick, round robin, and a [`Message::Health`]
+//! every second. [`Streamer`] decides which, [`encode`] frames one message into the
+//! caller's buffer, and [`StreamDecoder`] turns received bytes back into messages.
+//!
+//! `no_std`, no allocator, no floating point; nothing here panics on any input.
+//!
+//! # Byte layout
+//!
+//! One frame on the wire is
+//!
+//! ```text
+//! COBS( VERSION | postcard(Message) | CRC16_LE ) | 0x00
+//! ```
+//!
+//! - `VERSION` is one byte, [`WIRE_VERSION`] (`0xB3`: BugBot telemetry, layout 3). A
+//!   receiver drops frames with any other value.
+//! - `postcard(Message)` is the [postcard 1.x] encoding of [`Message`]: integers `u16`,
+//!   `u32`, `i32` are LEB128 varints (signed ones zigzag-mapped first), `u8` and `i8` are
+//!   one raw byte, an enum is its variant index as a varint followed by its fields, a
+//!   struct is its fields in order with nothing between them.
+//! - `CRC16_LE` is CRC-16/CCITT-FALSE (polynomial `0x1021`, initial value `0xFFFF`, no
+//!   reflection, no final XOR; check value `0x29B1` for `"123456789"`) over the
+//!   `VERSION` byte and the postcard bytes, sent low byte first.
+//! - `COBS` is Consistent Overhead Byte Stuffing: the stuffed frame holds no `0x00`, so
+//!   `0x00` ends every frame and a receiver resynchronises at the next one. A block of 254
+//!   non-zero bytes is code `0xFF` with no implied zero. Empty frames (`0x00 0x00`) are
+//!   ignored, so a sender may send a lone `0x00` first to end a receiver's partial frame.
+//!
+//! Messages (variant index, then fields in order):
+//!
+//! | index | message | fields |
+//! |---|---|---|
+//! | 0 | `Hello` | `width: u16`, `height: u16` (cells), `cell_mm: i32`, `origin_x_mm: i32`, `origin_y_mm: i32`, `free_below: i8`, `occupied_above: i8` (cell units, below), `firmware: u8 major, u8 minor, u8 patch` |
+//! | 1 | `Tick` | `tick: u32`, `time_ms: u32`, `x_um: i32`, `y_um: i32`, `heading_bits: u32` (2^32 per turn, clockwise from +y), `fix` (varint 0 not attempted, 1 taken, 2 rejected followed by varint 0 geometry / 1 gate / 2 too old), `stale: u8` (bit 0 flow, bit 1 gyro, bit 2 depth), `cells_written: u32`, then the counters as `u32`: ticks, fixes_taken, fixes_rejected_geometry, fixes_rejected_gate, fixes_rejected_too_old, relocalisations, beams_mapped, beams_invalid, flow_stale, gyro_stale, depth_stale |
+//! | 2 | `MapRows` | `first_row: u16`, `first_column: u16`, `cells`: varint count (at most [`MAX_CHUNK_CELLS`]) then one `i8` per cell |
+//! | 3 | `Health` | twelve `u32`: depth_timeouts, depth_bus_errors, flow_no_surface, flow_outliers, flow_bus_errors, gyro_bus_errors, camera_bad_frames, tick_overruns, watchdog_feeds, depth_start_failures, flow_start_failures, gyro_start_failures |
+//!
+//! A `MapRows` chunk's cells run in row-major order from `(first_column, first_row)`,
+//! carrying on at column 0 of the next row; row 0 is the grid's lowest y. A cell is its
+//! Q8 log odds divided by 16 (`>> 4`), saturated to `[-128, 127]`, and then moved by at
+//! most one step so that its belief survives: it is *free* when below `-free_below`,
+//! *occupied* when above `occupied_above` (the `Hello`'s thresholds, in the same units),
+//! and unknown otherwise, exactly as the robot's grid classifies it (see [`CellScale`]).
+//!
+//! # Budget
+//!
+//! The longest frame is [`MAX_FRAME_LEN`] (142) bytes. On the seed's 46 x 46 grid at
+//! 10 Hz with [`Schedule::DEFAULT`]: a `MapRows` of two rows (92 cells) is 101 bytes a
+//! tick, a `Tick` at most 96, a `Health` at most 66 once a second and a `Hello` at most 33
+//! every 5 s (the tests check each bound). That is at most 10 x (101 + 96) + 66 + 7 =
+//! 2,043 bytes/s, and the whole map refreshes every 2.3 s. The firmware sends two chunks a
+//! tick: at most 3,053 bytes/s, 3.3 % of its 921,600 baud 8N1 UART (92,160 bytes/s).
+//!
+//! # Files
+//!
+//! `message.rs` the messages, `health.rs` the one list of sensor counters,
+//! `core_layout.rs` the core's own types on the wire, `cell_scale.rs` a map cell in one
+//! byte, `stream.rs` the sender ([`Streamer`], [`encode`]), `decode.rs` the receiver
+//! ([`StreamDecoder`]).
+//!
+//! [postcard 1.x]: https://postcard.jamesmunns.com/wire-format
+
+mod cell_scale;
+mod core_layout;
+mod decode;
+mod health;
+mod message;
+mod stream;
+
+pub use crate::framing::{DecoderStats, FrameError};
+pub use cell_scale::CellScale;
+pub use core_layout::serialize_counters;
+pub use decode::{Frames, StreamDecoder};
+pub use health::SensorHealth;
+pub use message::{
+    CellChunk, FirmwareVersion, Hello, MapRows, Message, Tick, STALE_DEPTH, STALE_FLOW, STALE_GYRO,
+};
+pub use stream::{encode, EncodeError, Schedule, Streamer};
+
+/// The first byte of every frame: `0xB3`, BugBot telemetry layout 3.
+///
+/// Bumped whenever the layout changes, so an old viewer drops new frames instead of
+/// misreading them. Layout 2 added the start-up failure counts to `Health`; layout 3 the
+/// `TooOld` fix rejection and its counter to `Tick`.
+pub const WIRE_VERSION: u8 = 0xB3;
+
+/// Most cells one [`MapRows`] carries: two rows of the seed's 46-cell grid fit, and the
+/// frame stays under 150 bytes (1.6 ms at 921,600 baud).
+pub const MAX_CHUNK_CELLS: usize = 128;
+
+/// Longest postcard encoding of any [`Message`], in bytes (a full [`MapRows`]: index 1,
+/// two 3-byte `u16` varints, a 2-byte count and 128 cells).
+pub const MAX_MESSAGE_LEN: usize = 1 + 3 + 3 + 2 + MAX_CHUNK_CELLS;
+
+/// Longest frame before stuffing: version byte, message, CRC.
+pub const MAX_RAW_LEN: usize = 1 + MAX_MESSAGE_LEN + 2;
+
+/// Longest frame on the wire, in bytes, delimiter included: COBS adds one byte per 254
+/// started, the delimiter one more. Size encode buffers with this.
+pub const MAX_FRAME_LEN: usize = MAX_RAW_LEN + MAX_RAW_LEN / 254 + 1 + 1;

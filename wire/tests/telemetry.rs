@@ -1,0 +1,489 @@
+//! The telemetry stream's frames: byte fixtures, round trips, worst cases, damaged input,
+//! the sender's schedule and map sweep.
+
+use proptest::prelude::*;
+use slam_core::{
+    Angle, Counters, Evidence, FixOutcome, FixRejection, GridGeometry, GridMap, Pose, SlamConfig,
+    Staleness, StepReport,
+};
+use wire::framing::{cobs_encode, crc16};
+use wire::telemetry::*;
+
+/// `raw` as it goes on the wire, built by hand: its CRC appended, COBS-stuffed, and
+/// the zero delimiter.
+fn sealed(raw: &[u8]) -> Vec<u8> {
+    let mut raw = raw.to_vec();
+    let crc = crc16(&raw);
+    raw.extend_from_slice(&crc.to_le_bytes());
+    let mut stuffed = std::vec![0u8; 32];
+    let n = cobs_encode(&raw, &mut stuffed).expect("room");
+    stuffed.truncate(n);
+    stuffed.push(0);
+    stuffed
+}
+
+const FW: FirmwareVersion = FirmwareVersion {
+    major: 0,
+    minor: 3,
+    patch: 1,
+};
+
+fn hello() -> Message {
+    Message::Hello(Hello {
+        width: 46,
+        height: 46,
+        cell_mm: 50,
+        origin_x_mm: -150,
+        origin_y_mm: -150,
+        free_below: 16,
+        occupied_above: 16,
+        firmware: FW,
+    })
+}
+
+fn tick() -> Message {
+    Message::Tick(Tick {
+        tick: 137,
+        time_ms: 13_600,
+        x_um: 812_345,
+        y_um: -1_234,
+        heading_bits: 0xC000_0001,
+        fix: FixOutcome::Rejected(FixRejection::Gate),
+        stale: STALE_FLOW | STALE_DEPTH,
+        cells_written: 77,
+        counters: Counters {
+            ticks: 137,
+            fixes_taken: 12,
+            fixes_rejected_geometry: 1,
+            fixes_rejected_gate: 2,
+            fixes_rejected_too_old: 3,
+            relocalisations: 0,
+            beams_mapped: 1000,
+            beams_invalid: 96,
+            flow_stale: 3,
+            gyro_stale: 0,
+            depth_stale: 1,
+        },
+    })
+}
+
+fn map_rows() -> Message {
+    let cells: Vec<i8> = (0..92).map(|i| (i * 3 - 128) as i8).collect();
+    Message::MapRows(MapRows {
+        first_row: 44,
+        first_column: 0,
+        cells: CellChunk::from_slice(&cells).unwrap_or_default(),
+    })
+}
+
+fn health() -> Message {
+    Message::Health(SensorHealth {
+        depth_timeouts: 1,
+        depth_bus_errors: 2,
+        flow_no_surface: 3,
+        flow_outliers: 4,
+        flow_bus_errors: 5,
+        gyro_bus_errors: 6,
+        camera_bad_frames: 7,
+        tick_overruns: 8,
+        watchdog_feeds: u32::MAX,
+        depth_start_failures: 9,
+        flow_start_failures: 10,
+        gyro_start_failures: 11,
+    })
+}
+
+fn frame(m: &Message) -> Vec<u8> {
+    let mut buf = [0u8; MAX_FRAME_LEN];
+    let n = encode(m, &mut buf).expect("encodes");
+    buf[..n].to_vec()
+}
+
+fn decode_all(bytes: &[u8]) -> (Vec<Result<Message, FrameError>>, DecoderStats) {
+    let mut d = StreamDecoder::new();
+    let out = d.feed(bytes).collect();
+    (out, *d.stats())
+}
+
+#[test]
+fn health_frame_fixture() {
+    // The layout written out by hand: version, variant 3, twelve varints, CRC, stuffed.
+    let h = Message::Health(SensorHealth {
+        depth_timeouts: 0,
+        depth_bus_errors: 1,
+        flow_no_surface: 300,
+        gyro_start_failures: 2,
+        ..SensorHealth::default()
+    });
+    let stuffed = sealed(&[0xB3, 3, 0, 1, 0xAC, 0x02, 0, 0, 0, 0, 0, 0, 0, 0, 2]);
+    assert_eq!(frame(&h), stuffed);
+    // No zero before the delimiter.
+    assert!(!stuffed[..stuffed.len() - 1].contains(&0));
+    assert_eq!(stuffed[0], 3, "first COBS code: b3 03 then a zero");
+}
+
+#[test]
+fn round_trip_each_message() {
+    for m in [hello(), tick(), map_rows(), health()] {
+        let bytes = frame(&m);
+        assert_eq!(bytes.last(), Some(&0));
+        assert!(bytes.len() <= MAX_FRAME_LEN);
+        let (out, stats) = decode_all(&bytes);
+        assert_eq!(out, std::vec![Ok(m)]);
+        assert_eq!(stats.frames_ok, 1);
+        assert_eq!(stats.bad_frames.total(), 0);
+    }
+}
+
+#[test]
+fn worst_case_messages_fit() {
+    let full = CellChunk::from_slice(&[-1i8; MAX_CHUNK_CELLS]).unwrap_or_default();
+    let big = Message::MapRows(MapRows {
+        first_row: u16::MAX,
+        first_column: u16::MAX,
+        cells: full,
+    });
+    let body = postcard::to_slice(&big, &mut [0u8; 512])
+        .map(|b| b.len())
+        .unwrap_or(0);
+    assert_eq!(body, MAX_MESSAGE_LEN);
+    let mut worst_tick = tick();
+    if let Message::Tick(t) = &mut worst_tick {
+        t.tick = u32::MAX;
+        t.time_ms = u32::MAX;
+        t.x_um = i32::MIN;
+        t.y_um = i32::MIN;
+        t.heading_bits = u32::MAX;
+        t.cells_written = u32::MAX;
+        t.fix = FixOutcome::Rejected(FixRejection::TooOld);
+        t.counters = Counters {
+            ticks: u32::MAX,
+            fixes_taken: u32::MAX,
+            fixes_rejected_geometry: u32::MAX,
+            fixes_rejected_gate: u32::MAX,
+            fixes_rejected_too_old: u32::MAX,
+            relocalisations: u32::MAX,
+            beams_mapped: u32::MAX,
+            beams_invalid: u32::MAX,
+            flow_stale: u32::MAX,
+            gyro_stale: u32::MAX,
+            depth_stale: u32::MAX,
+        };
+    }
+    let all_max = SensorHealth {
+        depth_timeouts: u32::MAX,
+        depth_bus_errors: u32::MAX,
+        flow_no_surface: u32::MAX,
+        flow_outliers: u32::MAX,
+        flow_bus_errors: u32::MAX,
+        gyro_bus_errors: u32::MAX,
+        camera_bad_frames: u32::MAX,
+        tick_overruns: u32::MAX,
+        watchdog_feeds: u32::MAX,
+        depth_start_failures: u32::MAX,
+        flow_start_failures: u32::MAX,
+        gyro_start_failures: u32::MAX,
+    };
+    let mut worst_hello = hello();
+    if let Message::Hello(h) = &mut worst_hello {
+        h.width = u16::MAX;
+        h.height = u16::MAX;
+        h.cell_mm = i32::MIN;
+        h.origin_x_mm = i32::MIN;
+        h.origin_y_mm = i32::MIN;
+    }
+    for (m, limit) in [
+        (big, MAX_FRAME_LEN),
+        (worst_tick, 96),
+        (Message::Health(all_max), 66),
+        (worst_hello, 33),
+    ] {
+        let bytes = frame(&m);
+        assert!(bytes.len() <= limit, "{} > {limit}", bytes.len());
+        assert_eq!(decode_all(&bytes).0, std::vec![Ok(m)]);
+    }
+}
+
+#[test]
+fn buffer_too_small_is_an_error() {
+    let needed = frame(&map_rows()).len();
+    let mut small = [0u8; 40];
+    assert_eq!(
+        encode(&map_rows(), &mut small),
+        Err(EncodeError::BufferTooSmall { needed })
+    );
+    let mut exact = std::vec![0u8; needed];
+    assert_eq!(encode(&map_rows(), &mut exact), Ok(needed));
+}
+
+#[test]
+fn garbage_between_frames_resynchronises() {
+    let mut bytes = std::vec![0x55, 0x13, 0xFF];
+    bytes.extend(frame(&hello()));
+    bytes.extend([1, 2, 3, 4, 5, 0]);
+    bytes.extend(frame(&tick()));
+    bytes.extend([0, 0, 0]); // empty frames: ignored
+    bytes.extend([0xB3, 0x07, 0]); // stuffing that runs past the end
+    bytes.extend(frame(&health()));
+    let (out, stats) = decode_all(&bytes);
+    let good: Vec<Message> = out.iter().filter_map(|r| r.clone().ok()).collect();
+    assert_eq!(good, std::vec![tick(), health()]);
+    assert_eq!(stats.frames_ok, 2);
+    // The leading garbage swallowed the hello: the frame boundary was lost.
+    assert_eq!(stats.bad_frames.total(), 3, "{stats:?}");
+    assert_eq!(
+        stats.bad_frames.bad_cobs, 3,
+        "each piece of garbage fails its stuffing"
+    );
+}
+
+#[test]
+fn truncated_frame_is_counted_and_the_next_one_decodes() {
+    let whole = frame(&tick());
+    let mut bytes = whole[..whole.len() / 2].to_vec();
+    bytes.push(0);
+    bytes.extend(frame(&hello()));
+    let (out, stats) = decode_all(&bytes);
+    assert_eq!(out.len(), 2);
+    assert!(out[0].is_err());
+    assert_eq!(out[1], Ok(hello()));
+    assert_eq!(stats.bad_frames.total(), 1);
+    // Too short to hold anything.
+    let (out, stats) = decode_all(&[0x02, 0xB3, 0]);
+    assert_eq!(out, std::vec![Err(FrameError::TooShort)]);
+    assert_eq!(stats.bad_frames.too_short, 1);
+}
+
+#[test]
+fn every_flipped_bit_is_caught() {
+    let good = frame(&tick());
+    let mut codes = Vec::new();
+    let mut at = 0;
+    while at < good.len() - 1 {
+        codes.push(at);
+        at += good[at] as usize;
+    }
+    for i in 0..good.len() - 1 {
+        for bit in 0..8 {
+            let mut bad = good.clone();
+            bad[i] ^= 1 << bit;
+            let (out, stats) = decode_all(&bad);
+            assert_eq!(stats.frames_ok, 0, "byte {i} bit {bit}: {out:?}");
+            assert!(stats.bad_frames.total() >= 1);
+            if bad[i] != 0 && !codes.contains(&i) {
+                // A data byte changed and the stuffing still adds up: the CRC tells.
+                assert_eq!(stats.bad_frames.bad_crc, 1, "byte {i} bit {bit}: {stats:?}");
+                assert_eq!(stats.bad_frames.total(), 1);
+            }
+        }
+    }
+}
+
+#[test]
+fn wrong_version_and_bad_body_are_told_apart() {
+    // Layout 1's and layout 2's health frames: older firmwares'.
+    for old in [
+        std::vec![0xB1, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0],
+        std::vec![0xB2, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0],
+    ] {
+        assert_eq!(
+            decode_all(&sealed(&old)).0,
+            std::vec![Err(FrameError::Version)]
+        );
+    }
+
+    for raw in [
+        std::vec![0xB3, 9],                                        // no such variant
+        std::vec![0xB3, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0],             // health cut short
+        std::vec![0xB3, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 7], // a byte left over
+        std::vec![0xB3, 2, 0, 0, 0x81, 0x01],                      // 129 cells announced
+    ] {
+        assert_eq!(
+            decode_all(&sealed(&raw)).0,
+            std::vec![Err(FrameError::Body)]
+        );
+    }
+}
+
+#[test]
+fn overlong_frame_is_dropped_and_the_next_decodes() {
+    let mut bytes = std::vec![0x42; MAX_FRAME_LEN * 3];
+    bytes.push(0);
+    bytes.extend(frame(&health()));
+    let (out, stats) = decode_all(&bytes);
+    assert_eq!(out, std::vec![Err(FrameError::Overlong), Ok(health())]);
+    assert_eq!(stats.bad_frames.overlong, 1);
+    // Exactly the longest legal frame still fits.
+    let longest = CellChunk::from_slice(&[5i8; MAX_CHUNK_CELLS]).unwrap_or_default();
+    let m = Message::MapRows(MapRows {
+        first_row: u16::MAX,
+        first_column: u16::MAX,
+        cells: longest,
+    });
+    let bytes = frame(&m);
+    assert_eq!(bytes.len(), MAX_FRAME_LEN);
+    assert_eq!(decode_all(&bytes).0, std::vec![Ok(m)]);
+}
+
+fn seed_map() -> GridMap<46, 46> {
+    let mut map = GridMap::new(SlamConfig::seed_mat().geometry, Evidence::SEED);
+    for i in 0..46 {
+        map.add(i, i, 300);
+        map.add(45 - i, i, -300);
+        map.add(i, 0, 2000);
+    }
+    map
+}
+
+#[test]
+fn a_sweep_covers_the_map_in_whole_rows() {
+    let map = seed_map();
+    let mut s = Streamer::new(Schedule::DEFAULT, FW);
+    let mut rebuilt = [[0i8; 46]; 46];
+    let scale = CellScale::new(map.evidence());
+    for i in 0..23 {
+        let rows = s.next_map_rows(&map).expect("a chunk");
+        assert_eq!((rows.first_row, rows.first_column), (2 * i, 0));
+        assert_eq!(rows.cells.len(), 92);
+        for (k, &c) in rows.cells.as_slice().iter().enumerate() {
+            rebuilt[rows.first_row as usize + k / 46][k % 46] = c;
+        }
+    }
+    assert_eq!(s.next_map_rows(&map).map(|r| r.first_row), Some(0));
+    for (r, row) in rebuilt.iter().enumerate() {
+        for (c, &q) in row.iter().enumerate() {
+            assert_eq!(scale.belief(q), map.occupancy(c as i32, r as i32));
+        }
+    }
+}
+
+#[test]
+fn wide_grids_go_in_row_pieces() {
+    let geometry = GridGeometry {
+        cell_mm: 50,
+        origin_x_mm: 0,
+        origin_y_mm: 0,
+    };
+    let map: GridMap<206, 3> = GridMap::new(geometry, Evidence::SEED);
+    let mut s = Streamer::new(Schedule::DEFAULT, FW);
+    let mut seen = Vec::new();
+    s.send_whole_map(&map, |m| {
+        if let Message::MapRows(r) = m {
+            seen.push((r.first_row, r.first_column, r.cells.len()));
+        }
+    });
+    assert_eq!(
+        seen,
+        std::vec![
+            (0, 0, 128),
+            (0, 128, 78),
+            (1, 0, 128),
+            (1, 128, 78),
+            (2, 0, 128),
+            (2, 128, 78)
+        ]
+    );
+    // Every frame of a sweep fits the longest frame.
+    s.send_whole_map(&map, |m| assert!(frame(m).len() <= MAX_FRAME_LEN));
+}
+
+#[test]
+fn the_schedule() {
+    let map = seed_map();
+    let mut s = Streamer::new(Schedule::DEFAULT, FW);
+    let report = StepReport {
+        pose: Pose::from_mm_mdeg(1, 2, 3),
+        fix: FixOutcome::Taken,
+        stale: Staleness::default(),
+        cells_written: 3,
+        counters: Counters::default(),
+    };
+    let mut kinds = Vec::new();
+    for t in 0..51u32 {
+        s.tick(t * 100, &report, &map, &SensorHealth::default(), |m| {
+            kinds.push((t, core::mem::discriminant(m)))
+        });
+    }
+    let count = |m: &Message| {
+        kinds
+            .iter()
+            .filter(|(_, d)| *d == core::mem::discriminant(m))
+            .count()
+    };
+    assert_eq!(count(&hello()), 2); // ticks 0 and 50
+    assert_eq!(count(&tick()), 51);
+    assert_eq!(count(&map_rows()), 51);
+    assert_eq!(count(&health()), 6); // ticks 0, 10, ..., 50
+    assert_eq!(kinds[0].1, core::mem::discriminant(&hello()));
+}
+
+#[test]
+fn tick_carries_the_report() {
+    let report = StepReport {
+        pose: Pose {
+            x_um: -5,
+            y_um: 7,
+            heading: Angle::from_bits(0x8000_0000),
+        },
+        fix: FixOutcome::Rejected(FixRejection::Geometry),
+        stale: Staleness {
+            flow: true,
+            gyro: false,
+            depth: true,
+        },
+        cells_written: 9,
+        counters: Counters {
+            ticks: 4,
+            ..Counters::default()
+        },
+    };
+    let t = Tick::new(300, &report);
+    assert_eq!(t.pose(), report.pose);
+    assert_eq!(t.staleness(), report.stale);
+    assert_eq!(t.tick, 4);
+    let (out, _) = decode_all(&frame(&Message::Tick(t)));
+    assert_eq!(out, std::vec![Ok(Message::Tick(t))]);
+}
+
+proptest! {
+    #[test]
+    fn arbitrary_bytes_never_panic(bytes in proptest::collection::vec(any::<u8>(), 0..2000)) {
+        let mut d = StreamDecoder::new();
+        let results: Vec<_> = d.feed(&bytes).collect();
+        let stats = *d.stats();
+        prop_assert_eq!(results.len() as u32, stats.frames_ok + stats.bad_frames.total());
+    }
+
+    #[test]
+    fn arbitrary_ticks_round_trip(
+        v in proptest::array::uniform17(any::<u32>()),
+        fix in 0u8..5,
+        stale in any::<u8>(),
+        noise in proptest::collection::vec(any::<u8>(), 0..300),
+    ) {
+        let t = Tick {
+            tick: v[0], time_ms: v[1], x_um: v[2] as i32, y_um: v[3] as i32,
+            heading_bits: v[4],
+            fix: match fix {
+                0 => FixOutcome::NotAttempted,
+                1 => FixOutcome::Taken,
+                2 => FixOutcome::Rejected(FixRejection::Geometry),
+                3 => FixOutcome::Rejected(FixRejection::Gate),
+                _ => FixOutcome::Rejected(FixRejection::TooOld),
+            },
+            stale,
+            cells_written: v[5],
+            counters: Counters {
+                ticks: v[6], fixes_taken: v[7], fixes_rejected_geometry: v[8],
+                fixes_rejected_gate: v[9], fixes_rejected_too_old: v[16], relocalisations: v[10], beams_mapped: v[11],
+                beams_invalid: v[12], flow_stale: v[13], gyro_stale: v[14], depth_stale: v[15],
+            },
+        };
+        // Noise, a delimiter, then the frame: the frame always comes through.
+        let mut bytes = noise;
+        bytes.push(0);
+        bytes.extend(frame(&Message::Tick(t)));
+        let (out, _) = decode_all(&bytes);
+        prop_assert_eq!(out.last().cloned(), Some(Ok(Message::Tick(t))));
+    }
+}
