@@ -158,13 +158,15 @@ impl LoopCounters {
 
 /// Adds the log's figures to the harness's JSON object: the firmware's counters
 /// (`fw_ticks`, `overruns`, `fw_max_late_us`, `fw_max_step_us`), `defmt_lines` and the
-/// last [`LAST_LOGS`] lines as `last_logs`.
+/// last [`LAST_LOGS`] lines as `last_logs`. A `defmt_decoder` key from a harness that
+/// still tried `defmt-print` itself is dropped: the log is decoded here.
 pub fn add_figures(
     figures: &mut serde_json::Map<String, serde_json::Value>,
     lines: &[LogLine],
     counters: LoopCounters,
 ) {
     use serde_json::Value;
+    figures.remove("defmt_decoder");
     figures.insert("fw_ticks".into(), counters.ticks.into());
     figures.insert("overruns".into(), counters.overruns.into());
     figures.insert("fw_max_step_us".into(), counters.max_step_us.into());
@@ -351,6 +353,8 @@ max_late_us: 30, max_step_us: 9000, max_telemetry_us: 80 } | beams=3"
         };
         let mut figures = serde_json::Map::new();
         figures.insert("defmt_bytes".into(), 1234.into());
+        figures.insert("defmt_decoder".into(), "none: install defmt-print".into());
+        figures.insert("overruns".into(), serde_json::Value::Null);
         add_figures(&mut figures, &lines, counters);
         assert_eq!(figures["fw_ticks"], 519);
         assert_eq!(figures["overruns"], 0);
@@ -358,6 +362,7 @@ max_late_us: 30, max_step_us: 9000, max_telemetry_us: 80 } | beams=3"
         assert_eq!(figures["fw_max_step_us"], 3000);
         assert_eq!(figures["defmt_lines"], 10);
         assert_eq!(figures["defmt_bytes"], 1234);
+        assert!(!figures.contains_key("defmt_decoder"));
         let last = figures["last_logs"].as_array().unwrap();
         assert_eq!(last.len(), LAST_LOGS);
         assert_eq!(last[0], "INFO line 2");
