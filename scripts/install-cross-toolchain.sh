@@ -9,6 +9,7 @@
 #           rust-web-src           the library source -Zbuild-std compiles core from
 #           rust-web-llvm, lld-22  /usr/bin/rust-lld (a link to lld-22), the linker rustc uses
 #           llvm-22                llvm-objcopy-22, llvm-size-22 and friends for inspecting images
+#           rust-web-clippy        cargo-clippy, for `cargo xtask lint` on the firmware
 # --c     The C toolchain of the firmware's `vl53l5cx` feature (ST's C driver, built by `cc`
 #         and bound by `bindgen`), needed with either Rust toolchain:
 #           gcc-arm-none-eabi        arm-none-eabi-gcc and -ar, which compile ST's driver
@@ -38,7 +39,7 @@ fi
 
 packages=()
 if [[ $want_rust -eq 1 ]]; then
-    packages+=(rustc-web cargo-web rust-web-src rust-web-llvm lld-22 llvm-22)
+    packages+=(rustc-web cargo-web rust-web-src rust-web-llvm lld-22 llvm-22 rust-web-clippy)
 fi
 if [[ $want_c -eq 1 ]]; then
     packages+=(gcc-arm-none-eabi libnewlib-arm-none-eabi libclang-dev)
@@ -84,7 +85,7 @@ export DEBIAN_FRONTEND=noninteractive
 
 tools=()
 if [[ $want_rust -eq 1 ]]; then
-    tools+=(/usr/bin/rustc /usr/bin/cargo /usr/bin/rust-lld)
+    tools+=(/usr/bin/rustc /usr/bin/cargo /usr/bin/rust-lld /usr/bin/cargo-clippy)
 fi
 if [[ $want_c -eq 1 ]]; then
     tools+=(/usr/bin/arm-none-eabi-gcc /usr/bin/arm-none-eabi-ar

@@ -1,21 +1,63 @@
-//! The project's commands: `cargo xtask <test|firmware|emulate|bench>`.
+//! The project's commands: `cargo xtask <test|lint|firmware|emulate|bench|tools>`
+//! (`cargo xtask help` lists them, `cargo xtask COMMAND --help` explains each).
 
 use std::process::{Command, ExitCode};
 
+use clap::{Parser, Subcommand};
+
+use emulate::EmulateArgs;
+use firmware::FirmwareArgs;
+
 mod emulate;
 mod firmware;
+mod lint;
+mod stage;
+mod tools;
+
+/// `cargo xtask`: the project's commands.
+#[derive(Parser, Debug)]
+#[command(name = "cargo xtask", bin_name = "cargo xtask", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Task,
+}
+
+#[derive(Subcommand, Debug)]
+enum Task {
+    /// Every test the project has: host crates, the emulator's self-tests, the firmware
+    /// build and budget, and the firmware on the emulated RP2040.
+    Test,
+    /// Formatting check, clippy on the host crates, and clippy on the firmware for its
+    /// target (`-D warnings` both).
+    Lint,
+    /// Build the RP2040 firmware, write its UF2 and BIN images, check its flash and RAM.
+    Firmware(FirmwareArgs),
+    /// Run the real firmware on the rp2040js emulator in the simulator's world.
+    Emulate(EmulateArgs),
+    /// The simulator's and the firmware's speed figures.
+    Bench(BenchArgs),
+    /// Check that every external program the tests call is installed, and name the
+    /// script that installs any that is not.
+    Tools,
+}
+
+/// `cargo xtask bench`'s options.
+#[derive(clap::Args, Debug)]
+struct BenchArgs {
+    /// Only the simulator's figures; skip the emulator.
+    #[arg(long)]
+    host_only: bool,
+}
 
 fn main() -> ExitCode {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let result = match args.first().map(String::as_str) {
-        Some("test") => test(&args[1..]),
-        Some("firmware") => firmware::run(&args[1..]),
-        Some("emulate") => emulate::run(&args[1..]),
-        Some("bench") => bench(&args[1..]),
-        _ => {
-            eprintln!("usage: cargo xtask <test|firmware|bench> [args]");
-            return ExitCode::from(2);
-        }
+    let cli = Cli::parse();
+    let result = match &cli.command {
+        Task::Test => test(),
+        Task::Lint => lint::run(),
+        Task::Firmware(args) => firmware::run(args),
+        Task::Emulate(args) => emulate::run(args),
+        Task::Bench(args) => bench(args),
+        Task::Tools => tools::check_all(),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -38,11 +80,22 @@ pub fn run_in(dir: &std::path::Path, cmd: &mut Command) -> Result<(), String> {
     let status = cmd
         .current_dir(dir)
         .status()
-        .map_err(|e| format!("cannot start {:?}: {e}", cmd.get_program()))?;
+        .map_err(|e| cannot_start(cmd, &e))?;
     if status.success() {
         Ok(())
     } else {
         Err(format!("{:?} failed: {status}", cmd.get_program()))
+    }
+}
+
+/// Why `cmd` did not start, with the script that installs it if the project has one.
+pub fn cannot_start(cmd: &Command, e: &std::io::Error) -> String {
+    let program = cmd.get_program().to_string_lossy();
+    match tools::install_hint(&program) {
+        Some(hint) if e.kind() == std::io::ErrorKind::NotFound => {
+            format!("cannot start {program}: {e}; {hint}")
+        }
+        _ => format!("cannot start {program}: {e}"),
     }
 }
 
@@ -59,7 +112,7 @@ pub fn workspace_root() -> std::path::PathBuf {
         .map_or_else(|| here.clone(), std::path::Path::to_path_buf)
 }
 
-fn cargo() -> Command {
+pub fn cargo() -> Command {
     Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
 }
 
@@ -67,12 +120,14 @@ fn cargo() -> Command {
 /// models and harness), the firmware build with its flash and RAM budget check, and the
 /// firmware itself on the emulated RP2040. Ends with one line totalling the tests, so a
 /// reader (or CI) does not have to add up cargo's lines.
-fn test(_args: &[String]) -> Result<(), String> {
-    let (cargo_passed, cargo_failed) = cargo_test(&["test", "--workspace", "--release"])?;
-    let (self_passed, self_failed) = emulate::check_self_tests()?;
-    firmware::run(&[])?;
-    let (fault_passed, fault_failed) = emulate::check_fault_run()?;
-    let (route_passed, route_failed) = emulate::check_route_run()?;
+fn test() -> Result<(), String> {
+    let (cargo_passed, cargo_failed) = stage::timed("cargo-tests", || {
+        cargo_test(&["test", "--workspace", "--release"])
+    })?;
+    let (self_passed, self_failed) = stage::timed("emulator-self-tests", emulate::self_tests::run)?;
+    stage::timed("firmware-build", || firmware::run(&FirmwareArgs::default()))?;
+    let (fault_passed, fault_failed) = stage::timed("emulator-faults", emulate::checks::fault_run)?;
+    let (route_passed, route_failed) = stage::timed("emulator-route", emulate::checks::route_run)?;
     let passed = cargo_passed + self_passed + fault_passed + route_passed;
     let failed = cargo_failed + self_failed + fault_failed + route_failed;
     println!("tests: {passed} passed, {failed} failed");
@@ -145,9 +200,9 @@ fn count_before(line: &str, label: &str) -> u64 {
 /// The project's speed figures: the simulator's simulated seconds per wall second and
 /// host nanoseconds per `step`, then the real firmware's Cortex-M0+ cycles per `step` on
 /// the emulator over the seed route (`--host-only` skips the emulator).
-fn bench(args: &[String]) -> Result<(), String> {
+fn bench(args: &BenchArgs) -> Result<(), String> {
     run_cmd(cargo().args(["run", "--release", "-p", "host-sim", "--", "bench"]))?;
-    if args.iter().any(|a| a == "--host-only") {
+    if args.host_only {
         return Ok(());
     }
     let figures = emulator_figures(&["--seconds", "52"])?;
@@ -194,7 +249,45 @@ fn bench(args: &[String]) -> Result<(), String> {
 
 #[cfg(test)]
 mod tests {
-    use super::count_before;
+    use super::*;
+    use clap::CommandFactory;
+
+    #[test]
+    fn the_command_line_is_consistent() {
+        Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn parses_each_subcommand() {
+        let parse = |args: &[&str]| {
+            Cli::try_parse_from(std::iter::once("cargo xtask").chain(args.iter().copied()))
+        };
+        assert!(matches!(parse(&["test"]).unwrap().command, Task::Test));
+        assert!(matches!(parse(&["lint"]).unwrap().command, Task::Lint));
+        match parse(&["firmware", "--no-default-features"])
+            .unwrap()
+            .command
+        {
+            Task::Firmware(a) => assert!(a.no_default_features && !a.check_only),
+            other => panic!("{other:?}"),
+        }
+        match parse(&["emulate", "--seconds", "20", "--json"])
+            .unwrap()
+            .command
+        {
+            Task::Emulate(a) => assert!(a.json && a.seconds == "20"),
+            other => panic!("{other:?}"),
+        }
+        match parse(&["bench", "--host-only"]).unwrap().command {
+            Task::Bench(a) => assert!(a.host_only),
+            other => panic!("{other:?}"),
+        }
+        // The bad command is named in the error.
+        let err = parse(&["frobnicate"]).unwrap_err().to_string();
+        assert!(err.contains("frobnicate"), "{err}");
+        let err = parse(&["test", "--bogus"]).unwrap_err().to_string();
+        assert!(err.contains("--bogus"), "{err}");
+    }
 
     #[test]
     fn reads_cargo_result_lines() {

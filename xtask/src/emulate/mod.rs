@@ -1,0 +1,319 @@
+//! `cargo xtask emulate`: the real firmware in the `rp2040js` emulator, living in the
+//! simulator's world.
+//!
+//! Steps: install the harness's npm dependencies from its lock file if they are missing,
+//! build the firmware (`cargo xtask firmware`), build `host-sim`, run
+//! `tests/emulator/harness.mjs` (which starts `host-sim serve` itself and talks to it over
+//! two FIFOs, so the world is read at exactly the simulated instant the firmware asks),
+//! then decode the firmware's defmt log ([`defmt_log`], with the table from the ELF) for
+//! its own loop counters, and the captured telemetry with `host-sim view`, which prints the figures and
+//! draws the pictures into `out/emulator/`. The harness also records the world's true pose
+//! at each step (`truth.jsonl`), so `view --truth --scenario` reports the figures
+//! `host-sim run` reports, worked out by the same code.
+//!
+//! [`checks`] holds what `cargo xtask test` requires of such runs, [`self_tests`] runs the
+//! harness's own tests.
+
+pub mod checks;
+pub mod defmt_log;
+pub mod self_tests;
+
+use std::os::fd::AsFd;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+
+use crate::firmware::{self, FirmwareArgs};
+use crate::{run_cmd, run_in, workspace_root};
+use defmt_log::LoopCounters;
+
+/// `cargo xtask emulate`'s options.
+#[derive(clap::Args, Clone, Debug, PartialEq, Eq)]
+pub struct EmulateArgs {
+    /// host-sim scenario file [default: host-sim/scenarios/seed-mat.toml]
+    #[arg(value_name = "SCENARIO")]
+    pub scenario: Option<PathBuf>,
+    /// Simulated seconds to run.
+    #[arg(long, value_name = "N", default_value = "60", value_parser = positive_number)]
+    pub seconds: String,
+    /// The world's noise seed.
+    #[arg(long, value_name = "N", default_value = "1", value_parser = positive_number)]
+    pub seed: String,
+    /// Accepted for symmetry with `host-sim run`; the firmware chooses its own pose
+    /// source, so this only labels the output directory.
+    #[arg(long, value_name = "MODE")]
+    pub pose: Option<String>,
+    /// depth-nack, camera-garbage, flow-no-surface or gyro-nack from S seconds on
+    /// (`NAME@T+S`, or `NAME@T+S/D` for D seconds); repeatable.
+    #[arg(long = "fault", value_name = "NAME@T+S")]
+    pub faults: Vec<String>,
+    /// Run without host-sim: the robot stands still on a good surface.
+    #[arg(long)]
+    pub no_world: bool,
+    /// Stop after this many wall-clock seconds.
+    #[arg(long, value_name = "S", value_parser = positive_number)]
+    pub max_wall: Option<String>,
+    /// Print one JSON object: {"emulator": ..., "view": ..., "out_dir": ...}.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// A positive number, kept as text for the harness's command line.
+fn positive_number(text: &str) -> Result<String, String> {
+    match text.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(text.to_string()),
+        _ => Err(format!("expected a positive number, got {text:?}")),
+    }
+}
+
+/// `cargo xtask emulate`.
+pub fn run(args: &EmulateArgs) -> Result<(), String> {
+    let root = workspace_root();
+    let scenario = args
+        .scenario
+        .clone()
+        .unwrap_or_else(|| root.join("host-sim/scenarios/seed-mat.toml"));
+    let harness_dir = self_tests::harness_dir();
+    let out_dir = match &args.pose {
+        Some(pose) => root.join("out/emulator").join(pose),
+        None => root.join("out/emulator"),
+    };
+    std::fs::create_dir_all(&out_dir)
+        .map_err(|e| format!("cannot create {}: {e}", out_dir.display()))?;
+
+    self_tests::install_harness_dependencies()?;
+
+    let elf = firmware::elf_path();
+    let bin = elf.with_extension("bin");
+    // With --json, stdout must hold one JSON object; `firmware::run` prints its size
+    // table there, so it runs as `xtask firmware` in a child with stdout sent to stderr.
+    let built = if args.json {
+        firmware_quietly()
+    } else {
+        firmware::run(&FirmwareArgs::default())
+    };
+    if let Err(e) = built {
+        // The budget check fails after a good build; the image is still worth running.
+        if elf.is_file() && bin.is_file() {
+            eprintln!("xtask emulate: warning: {e}; emulating the image that was built");
+        } else {
+            return Err(e);
+        }
+    }
+
+    let host_sim = host_sim_binary();
+    run_cmd(Command::new(cargo()).args(["build", "--release", "-p", "host-sim"]))?;
+
+    let telemetry = out_dir.join("telemetry.bin");
+    let defmt = out_dir.join("defmt.raw");
+    let truth = out_dir.join("truth.jsonl");
+    let mut harness = Command::new("node");
+    harness
+        .arg(harness_dir.join("harness.mjs"))
+        .arg("--elf")
+        .arg(&elf)
+        .arg("--bin")
+        .arg(&bin)
+        .arg("--scenario")
+        .arg(&scenario)
+        .args(["--seconds", &args.seconds, "--seed", &args.seed])
+        .arg("--telemetry")
+        .arg(&telemetry)
+        .arg("--defmt")
+        .arg(&defmt)
+        .arg("--json");
+    if args.no_world {
+        harness.arg("--no-world");
+    } else {
+        harness
+            .arg("--host-sim")
+            .arg(&host_sim)
+            .arg("--truth")
+            .arg(&truth);
+    }
+    if let Some(s) = &args.max_wall {
+        harness.args(["--max-wall", s]);
+    }
+    for f in &args.faults {
+        harness.args(["--fault", f]);
+    }
+    let harness_out = capture(&root, &mut harness)?;
+    let mut emulator: serde_json::Map<String, serde_json::Value> =
+        serde_json::from_str(harness_out.trim())
+            .map_err(|e| format!("the harness's figures are not a JSON object: {e}"))?;
+
+    // The firmware's own view of its loop, from its defmt log.
+    let lines = read_defmt_log(&elf, &defmt)?;
+    if !args.json {
+        for line in &lines {
+            eprintln!("{line}");
+        }
+    }
+    let counters = LoopCounters::last_in(&lines)
+        .map_err(|e| format!("the firmware's defmt log {}: {e}", defmt.display()))?;
+    defmt_log::add_figures(&mut emulator, &lines, counters);
+    let emulator_json = serde_json::Value::Object(emulator);
+
+    let mut view = Command::new(&host_sim);
+    view.arg("view").arg(&telemetry).arg("--out").arg(&out_dir);
+    if !args.no_world {
+        // Scored as `host-sim run` scores the simulator: pose against the truth, map
+        // against the scenario's world.
+        view.arg("--truth")
+            .arg(&truth)
+            .arg("--scenario")
+            .arg(&scenario);
+    }
+    if args.json {
+        view.arg("--json");
+    }
+    // A failing view must not hide the emulator's own figures.
+    let view_out = capture(&root, &mut view);
+
+    if args.json {
+        let view_json = match &view_out {
+            Ok(text) if text.trim_start().starts_with('{') => text.trim().to_string(),
+            Ok(text) => json_string(text.trim()),
+            Err(e) => format!("{{\"error\":{}}}", json_string(e)),
+        };
+        println!(
+            "{{\"emulator\":{emulator_json},\"view\":{view_json},\"out_dir\":{}}}",
+            json_string(&out_dir.display().to_string())
+        );
+    } else {
+        println!("emulator: {emulator_json}");
+        match view_out {
+            Ok(text) => println!("{}", text.trim_end()),
+            Err(e) => eprintln!("xtask emulate: host-sim view failed: {e}"),
+        }
+        println!("pictures and raw streams in {}", out_dir.display());
+    }
+    Ok(())
+}
+
+/// Decodes the harness's raw defmt capture with the table in the firmware's ELF.
+fn read_defmt_log(elf: &Path, log: &Path) -> Result<Vec<defmt_log::LogLine>, String> {
+    let read = |p: &Path| std::fs::read(p).map_err(|e| format!("cannot read {}: {e}", p.display()));
+    defmt_log::decode(&read(elf)?, &read(log)?).map_err(|e| {
+        format!(
+            "the firmware's defmt log {} (decoded with {}): {e}",
+            log.display(),
+            elf.display()
+        )
+    })
+}
+
+/// `cargo xtask firmware` (this very binary), its stdout redirected to stderr.
+fn firmware_quietly() -> Result<(), String> {
+    let exe = std::env::current_exe().map_err(|e| format!("cannot find xtask itself: {e}"))?;
+    run_in(
+        &workspace_root(),
+        Command::new(exe)
+            .arg("firmware")
+            .stdout(Stdio::from(stderr_fd()?)),
+    )
+}
+
+/// A copy of this process's stderr, to send a child's stdout there.
+pub(crate) fn stderr_fd() -> Result<std::os::fd::OwnedFd, String> {
+    std::io::stderr()
+        .as_fd()
+        .try_clone_to_owned()
+        .map_err(|e| format!("cannot duplicate stderr: {e}"))
+}
+
+/// The `host-sim` binary cargo builds: under `CARGO_TARGET_DIR` if set, else `target/`.
+pub fn host_sim_binary() -> PathBuf {
+    let root = workspace_root();
+    std::env::var_os("CARGO_TARGET_DIR")
+        .map_or_else(|| root.join("target"), |d| root.join(d))
+        .join("release/host-sim")
+}
+
+fn cargo() -> String {
+    std::env::var("CARGO").unwrap_or_else(|_| "cargo".into())
+}
+
+/// Runs `cmd` from `dir`, stderr passed through, and returns its stdout.
+pub fn capture(dir: &Path, cmd: &mut Command) -> Result<String, String> {
+    eprintln!("+ {:?}", cmd);
+    let output = cmd
+        .current_dir(dir)
+        .stderr(Stdio::inherit())
+        .output()
+        .map_err(|e| crate::cannot_start(cmd, &e))?;
+    let stdout = String::from_utf8_lossy(&output.stdout).into_owned();
+    if output.status.success() {
+        Ok(stdout)
+    } else {
+        Err(format!(
+            "{:?} failed: {}{}",
+            cmd.get_program(),
+            output.status,
+            if stdout.is_empty() {
+                String::new()
+            } else {
+                format!("\n{stdout}")
+            }
+        ))
+    }
+}
+
+/// `text` as a JSON string literal.
+fn json_string(text: &str) -> String {
+    serde_json::Value::String(text.to_string()).to_string()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(clap::Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: EmulateArgs,
+    }
+
+    fn parse(a: &[&str]) -> Result<EmulateArgs, clap::Error> {
+        Cli::try_parse_from(std::iter::once("emulate").chain(a.iter().copied())).map(|c| c.args)
+    }
+
+    #[test]
+    fn parses_scenario_and_options() {
+        let a = parse(&[
+            "s.toml",
+            "--seconds",
+            "5",
+            "--fault",
+            "depth-nack@T+3",
+            "--fault",
+            "gyro-nack@T+1/2",
+            "--json",
+            "--max-wall",
+            "30",
+        ])
+        .unwrap();
+        assert_eq!(a.scenario, Some(PathBuf::from("s.toml")));
+        assert_eq!(a.seconds, "5");
+        assert_eq!(a.seed, "1");
+        assert_eq!(a.faults, ["depth-nack@T+3", "gyro-nack@T+1/2"]);
+        assert_eq!(a.max_wall.as_deref(), Some("30"));
+        assert!(a.json && !a.no_world);
+        let d = parse(&["--no-world"]).unwrap();
+        assert_eq!((d.scenario, d.seconds.as_str()), (None, "60"));
+        assert!(d.no_world);
+    }
+
+    #[test]
+    fn rejects_bad_numbers_and_extra_arguments() {
+        assert!(parse(&["--seconds", "-1"]).is_err());
+        assert!(parse(&["--seed", "nan"]).is_err());
+        assert!(parse(&["a.toml", "b.toml"]).is_err());
+        assert!(parse(&["--bogus"]).is_err());
+    }
+
+    #[test]
+    fn json_strings_are_escaped() {
+        assert_eq!(json_string("a\"b\\c\n"), "\"a\\\"b\\\\c\\n\"");
+    }
+}
