@@ -25,8 +25,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 use wire::framing::BadFrames;
 use wire::telemetry::{
-    encode, serialize_counters, CellScale, DecoderStats, FirmwareVersion, Hello, MapRows, Message, Schedule,
-    SensorHealth, StreamDecoder, Streamer, Tick, MAX_FRAME_LEN,
+    encode, serialize_counters, CellScale, DecoderStats, FirmwareVersion, Hello, MapRows, Message,
+    Schedule, SensorHealth, StreamDecoder, Streamer, Tick, MAX_FRAME_LEN,
 };
 
 /// The firmware version the simulator claims in its `Hello`: this crate's.

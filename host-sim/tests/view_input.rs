@@ -8,12 +8,12 @@ mod common;
 
 use common::{host_sim, seed_path};
 use host_sim::telemetry::{decode_bytes, TelemetryRecorder, MAX_GRID_SIDE};
-use wire::telemetry::{
-    encode, CellChunk, FirmwareVersion, Hello, MapRows, Message, Tick, MAX_FRAME_LEN,
-};
 use slam_core::{Counters, FixOutcome};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
+use wire::telemetry::{
+    encode, CellChunk, FirmwareVersion, Hello, MapRows, Message, Tick, MAX_FRAME_LEN,
+};
 
 /// A scratch file holding `bytes`, unique to this test.
 fn scratch(name: &str, bytes: &[u8]) -> PathBuf {
