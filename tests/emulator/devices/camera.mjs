@@ -1,5 +1,5 @@
 // The camera co-processor's link on UART0 RX: every 100 ms a frame of the AprilTags in
-// view (COBS + CRC-16/CCITT-FALSE, as drivers/src/camera_link documents), fed to the UART
+// view (COBS + CRC-16/CCITT-FALSE, as wire/src/camera_link documents), fed to the UART
 // one byte time apart as the real line would.
 
 /// Simulated time between frames, in nanoseconds.
@@ -118,7 +118,7 @@ export class CameraLink {
 
 /// `[name, passed]` for `harness.mjs --self-test`.
 export function selfTests() {
-  // The fixture of drivers/tests/camera_link.rs: tag 5 at (160, 120) px, 1500 mm; tag 256
+  // The fixture of wire/tests/camera_link.rs: tag 5 at (160, 120) px, 1500 mm; tag 256
   // at (0, 240) px, 0 mm; counter 0x0102; CRC 0x1B95.
   const FRAME = [0x01, 0x02, 0x01, 0x02, 0x05, 0x00, 0x80, 0x3e, 0xe0, 0x2e, 0xdc, 0x05, 0x00, 0x01, 0x00, 0x00, 0xc0, 0x5d, 0x00, 0x00];
   const FRAME_COBS = [0x06, 0x01, 0x02, 0x01, 0x02, 0x05, 0x07, 0x80, 0x3e, 0xe0, 0x2e, 0xdc, 0x05, 0x02, 0x01, 0x01, 0x03, 0xc0, 0x5d, 0x01, 0x03, 0x95, 0x1b];

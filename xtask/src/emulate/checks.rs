@@ -11,24 +11,17 @@ use crate::workspace_root;
 /// link sending garbage and the depth sensor NACKing its address on I2C0. Prints each check
 /// and the figures; returns (passed, failed).
 ///
-/// The whole route, not part of it: before the first tag fix (13.6 s into the route) the
-/// pose is dead reckoning, and the emulated map holds a cell or two out of place at 20 s
-/// even without faults (measured: 1), which later passes clear. At the end of the route a
-/// corrupted map would still show.
+/// The whole route, not part of it: before the first tag fix the pose is dead reckoning
+/// and a cell or two may stand out of place for a while even without faults; at the end of
+/// the route a corrupted map would still show.
 ///
-/// The depth sensor's way back, measured on seed 1: core 1 counts 10 read errors in a row
-/// within 50 ms of the fault and power-cycles the sensor (LPn); its start-ups fail while the
-/// NACKs last (`depth_start_failures` 4, with the doubling back-off from 200 ms), the next
-/// one uploads the sensor's 86 KB firmware (2 uploads in all) and scans resume. Measured:
-/// 519 ticks, 0 overruns, 0 bad frames; 10 depth bus errors, 4 failed start-ups, depth
-/// stale on 81 ticks (25 of them the start-up after reset), 3,446 beams mapped, known
-/// 81.0 %, 0 cells out of place; flow stale on 31 ticks; 60 bad camera frames; error after
-/// the first fix at most 1.69 cm, final 0.48 cm: the same as the run without faults.
-///
-/// Hence the depth bound: ticks with a fresh scan after 5 s number at least
-/// `ticks - depth_stale - 50` (the 50 ticks before 5 s may all have had one); measured 388,
-/// and a sensor that never came back would score below 0. 300 asks for scans over most of
-/// the 44 s after the fault.
+/// The depth sensor's way back: core 1 counts read errors in a row, power-cycles the
+/// sensor (LPn), retries its start-up with a doubling back-off while the NACKs last, and
+/// the first start-up that succeeds uploads the sensor's firmware again before scans
+/// resume. Hence the depth bound: ticks with a fresh scan after 5 s number at least
+/// `ticks - depth_stale - 50` (the 50 ticks before 5 s may all have had one); a sensor
+/// that never came back would score below 0, and 300 asks for scans over most of the 44 s
+/// after the fault. The figures of the last run are in the README.
 ///
 /// These figures need the emulated I2C block to raise TX_EMPTY after an address NACK's
 /// abort, as the RP2040's does (the harness's `patchI2c`): without it embassy-rp's blocking
@@ -179,26 +172,19 @@ fn agrees(emulated: f64, simulated: f64, tolerance: Tolerance) -> bool {
 /// returns (passed, failed).
 ///
 /// The two runs do not drive quite the same path: the simulator turns until the true
-/// heading has turned, the firmware until its gyro says so. Timing no longer sets them
+/// heading has turned, the firmware until its gyro says so. Timing does not set them
 /// apart: the firmware waits one tick with the gyro live before it moves, carries a tag
 /// fix from an old picture forward by the motion since (camera latency), and maps each
-/// depth scan at the pose of its moment. Measured on seed 1 (emulator vs simulator): 519
-/// ticks; known 81.2 vs 81.3 %; 0 vs 0 cells out of place; 121 vs 141 fixes; first fix
-/// 13.6 vs 13.6 s into the route (the emulator's route starts 1.1 s after reset); final
-/// error 0.48 vs 0.14 cm; error after the first fix at most 1.69 cm. Hence the bounds:
-/// - 514 to 520 ticks: 52 s at 10 Hz is 520 steps at most (the first at 0.1 s; measured
-///   519, the step at 52.0 s is not reached); losing more than 1 % is not keeping 10 Hz.
-/// - error after the first fix and final error <= 2 cm: the seed's bound, for both runs
-///   (measured 1.69 cm after the first fix, the closest of the checks to its bound).
+/// depth scan at the pose of its moment. Hence the bounds:
+/// - 514 to 520 ticks: 52 s at 10 Hz is 520 steps at most (the first at 0.1 s); losing
+///   more than 1 % is not keeping 10 Hz.
+/// - error after the first fix and final error <= 2 cm: the seed's bound, for both runs.
 /// - first fix within ±1.5 s: it waits for both tags to be in view, which moves with the
 ///   heading the first turn ends on; times are counted from the route's start (the
-///   emulator's `route_start_s`, when its truth first moves), not from reset (measured
-///   equal).
-/// - fixes within ±25 %: the same view geometry over the whole route decides the count
-///   (measured -14 %; none of the emulator's attempts was rejected, so the ticks it lacks
-///   are ticks without a picture of both tags).
-/// - known share within ±10 points: the simulator maps 81 % (80.8-81.7 % over seeds 1-20);
-///   paths a few centimetres apart see the same walls (measured 0.1 points apart).
+///   emulator's `route_start_s`, when its truth first moves), not from reset.
+/// - fixes within ±25 %: the same view geometry over the whole route decides the count;
+///   the emulator's camera latency costs it some ticks with both tags in one picture.
+/// - known share within ±10 points: paths a few centimetres apart see the same walls.
 pub fn route_run() -> Result<(u64, u64), String> {
     let f = crate::emulator_figures(&["--seconds", ROUTE_SECONDS, "--seed", ROUTE_SEED])?;
     let scenario = workspace_root().join("host-sim/scenarios/seed-mat.toml");
