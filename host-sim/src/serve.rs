@@ -30,7 +30,7 @@ pub const MAX_ADVANCE_S: f64 = 60.0;
 
 /// One request line.
 #[derive(Debug, Deserialize, PartialEq)]
-#[serde(tag = "cmd", rename_all = "snake_case", deny_unknown_fields)]
+#[serde(try_from = "RequestLine")]
 pub enum Request {
     /// Move the world on to `t_s` under these wheel duties.
     Advance {
@@ -51,6 +51,56 @@ pub enum Request {
     Tags,
     /// Where the robot really is.
     Truth,
+}
+
+/// A request line as written: one flat object. Read as a plain struct, its numbers come
+/// straight from the text; an internally tagged enum would buffer them first, and that
+/// breaks under serde_json's `arbitrary_precision` (which a workspace build that also
+/// builds `xtask`'s defmt-decoder switches on).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RequestLine {
+    cmd: CommandName,
+    t_s: Option<f64>,
+    left: Option<f64>,
+    right: Option<f64>,
+}
+
+/// The `cmd` of a request line.
+#[derive(Deserialize)]
+#[serde(rename_all = "snake_case")]
+enum CommandName {
+    Advance,
+    Flow,
+    Gyro,
+    Depth,
+    Tags,
+    Truth,
+}
+
+impl TryFrom<RequestLine> for Request {
+    type Error = String;
+
+    fn try_from(line: RequestLine) -> Result<Request, String> {
+        let without_arguments = |request: Request, cmd: &str| {
+            if line.t_s.is_none() && line.left.is_none() && line.right.is_none() {
+                Ok(request)
+            } else {
+                Err(format!("`{cmd}` takes no t_s, left or right"))
+            }
+        };
+        match line.cmd {
+            CommandName::Advance => match (line.t_s, line.left, line.right) {
+                (Some(t_s), Some(left), Some(right)) => Ok(Request::Advance { t_s, left, right }),
+                _ => Err("`advance` needs t_s, left and right".into()),
+            },
+            CommandName::Flow => without_arguments(Request::Flow, "flow"),
+            CommandName::Gyro => without_arguments(Request::Gyro, "gyro"),
+            CommandName::Depth => without_arguments(Request::Depth, "depth"),
+            CommandName::Tags => without_arguments(Request::Tags, "tags"),
+            CommandName::Truth => without_arguments(Request::Truth, "truth"),
+        }
+    }
 }
 
 #[derive(Serialize)]
@@ -209,6 +259,33 @@ mod tests {
         let w = (31.5f64).to_radians() * 50.0 / 300.0;
         let c = command_from_duty(&s, w, -w);
         assert!((c.turn_dps - 31.5).abs() < 1e-9 && c.speed_mm_s.abs() < 1e-12);
+    }
+
+    #[test]
+    fn request_lines_parse_or_say_what_is_wrong() {
+        let parse = |line: &str| serde_json::from_str::<Request>(line).map_err(|e| e.to_string());
+        assert_eq!(
+            parse(r#"{"cmd":"advance","t_s":0.25,"left":0.5,"right":-1}"#),
+            Ok(Request::Advance {
+                t_s: 0.25,
+                left: 0.5,
+                right: -1.0
+            })
+        );
+        assert_eq!(parse(r#"{"cmd":"gyro"}"#), Ok(Request::Gyro));
+        let refused = [
+            (r#"{"cmd":"advance","t_s":1}"#, "needs t_s, left and right"),
+            (r#"{"cmd":"gyro","t_s":1}"#, "takes no"),
+            (r#"{"cmd":"frobnicate"}"#, "frobnicate"),
+            (r#"{"cmd":"truth","speed":3}"#, "speed"),
+            (r#"{"t_s":1}"#, "cmd"),
+        ];
+        for (line, says) in refused {
+            match parse(line) {
+                Ok(r) => panic!("{line} parsed as {r:?}"),
+                Err(e) => assert!(e.contains(says), "{line}: {e}"),
+            }
+        }
     }
 
     #[test]
