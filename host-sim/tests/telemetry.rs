@@ -231,7 +231,7 @@ fn bad_input_is_refused_cleanly() {
 #[test]
 fn a_late_viewer_waits_for_hello_and_refuses_chunks_off_the_grid() {
     use host_sim::telemetry::TelemetryRecorder;
-    use wire::telemetry::{CellChunk, FirmwareVersion, Hello, MapRows, Message};
+    use wire::telemetry::{CellChunk, MapRows, Message};
     let rows = |first_row, first_column, n: usize| {
         Message::MapRows(MapRows {
             first_row,
@@ -242,16 +242,7 @@ fn a_late_viewer_waits_for_hello_and_refuses_chunks_off_the_grid() {
     let mut r = TelemetryRecorder::new();
     r.push(&rows(0, 0, 8)); // before any Hello: nowhere to put it
     assert!(r.beliefs().is_empty());
-    r.push(&Message::Hello(Hello {
-        width: 4,
-        height: 3,
-        cell_mm: 50,
-        origin_x_mm: 0,
-        origin_y_mm: 0,
-        free_below: 16,
-        occupied_above: 16,
-        firmware: FirmwareVersion::default(),
-    }));
+    r.push(&Message::Hello(common::hello(4, 3)));
     r.push(&rows(1, 0, 8)); // rows 1 and 2: fits exactly
     r.push(&rows(2, 0, 5)); // one cell past the end
     r.push(&rows(0, 4, 1)); // column past the width

@@ -6,14 +6,12 @@
 #[allow(dead_code)]
 mod common;
 
-use common::{host_sim, seed_path};
+use common::{hello, host_sim, seed_path};
 use host_sim::telemetry::{decode_bytes, TelemetryRecorder, MAX_GRID_SIDE};
 use slam_core::{Counters, FixOutcome};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
-use wire::telemetry::{
-    encode, CellChunk, FirmwareVersion, Hello, MapRows, Message, Tick, MAX_FRAME_LEN,
-};
+use wire::telemetry::{encode, CellChunk, Hello, MapRows, Message, Tick, MAX_FRAME_LEN};
 
 /// A scratch file holding `bytes`, unique to this test.
 fn scratch(name: &str, bytes: &[u8]) -> PathBuf {
@@ -24,19 +22,6 @@ fn scratch(name: &str, bytes: &[u8]) -> PathBuf {
         panic!("cannot write {}: {e}", path.display());
     }
     path
-}
-
-fn hello(width: u16, height: u16) -> Hello {
-    Hello {
-        width,
-        height,
-        cell_mm: 50,
-        origin_x_mm: 0,
-        origin_y_mm: 0,
-        free_below: 16,
-        occupied_above: 16,
-        firmware: FirmwareVersion::default(),
-    }
 }
 
 fn tick(n: u32) -> Message {

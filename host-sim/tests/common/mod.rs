@@ -2,6 +2,7 @@
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+use wire::telemetry::{FirmwareVersion, Hello};
 
 /// The shipped seed scenario.
 pub fn seed_path() -> PathBuf {
@@ -34,3 +35,19 @@ pub const SCORED_FIGURES: [&str; 11] = [
     "max_heading_error_after_first_fix_deg",
     "max_error_cm",
 ];
+
+/// A `Hello` for a `width` x `height` grid of 5 cm cells at the origin, with the seed's
+/// thresholds: what the stream tests build their maps on.
+#[allow(dead_code)] // not every test file builds a stream
+pub fn hello(width: u16, height: u16) -> Hello {
+    Hello {
+        width,
+        height,
+        cell_mm: 50,
+        origin_x_mm: 0,
+        origin_y_mm: 0,
+        free_below: 16,
+        occupied_above: 16,
+        firmware: FirmwareVersion::default(),
+    }
+}

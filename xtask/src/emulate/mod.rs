@@ -101,7 +101,7 @@ pub fn run(args: &EmulateArgs) -> Result<(), String> {
     }
 
     let host_sim = host_sim_binary();
-    run_cmd(Command::new(cargo()).args(["build", "--release", "-p", "host-sim"]))?;
+    run_cmd(crate::cargo().args(["build", "--release", "-p", "host-sim"]))?;
 
     let telemetry = out_dir.join("telemetry.bin");
     let defmt = out_dir.join("defmt.raw");
@@ -227,10 +227,6 @@ pub fn host_sim_binary() -> PathBuf {
     std::env::var_os("CARGO_TARGET_DIR")
         .map_or_else(|| root.join("target"), |d| root.join(d))
         .join("release/host-sim")
-}
-
-fn cargo() -> String {
-    std::env::var("CARGO").unwrap_or_else(|_| "cargo".into())
 }
 
 /// Runs `cmd` from `dir`, stderr passed through, and returns its stdout.
