@@ -132,8 +132,7 @@ pub struct TelemetryRecorder {
     health: Option<SensorHealth>,
     hellos: u32,
     /// `Hello`s refused (see [`MAX_GRID_SIDE`]), and what was wrong with the last.
-    hellos_refused: u32,
-    last_refused: Option<String>,
+    refused: Option<RefusedHellos>,
     map_rows: u32,
     map_rows_refused: u32,
     restarts: u32,
@@ -177,8 +176,11 @@ impl TelemetryRecorder {
         self.hellos += 1;
         if let Some(problem) = grid_problem(h) {
             // Keep the grid there is (if any): its chunks may still come.
-            self.hellos_refused += 1;
-            self.last_refused = Some(problem);
+            let count = self.refused.as_ref().map_or(0, |r| r.count) + 1;
+            self.refused = Some(RefusedHellos {
+                count,
+                last: problem,
+            });
             return;
         }
         let same_grid = self.hello.is_some_and(|old| {
@@ -264,7 +266,7 @@ impl TelemetryRecorder {
 
     /// `Hello`s refused because their grid is impossible or past [`MAX_GRID_SIDE`].
     pub fn hellos_refused(&self) -> u32 {
-        self.hellos_refused
+        self.refused.as_ref().map_or(0, |r| r.count)
     }
 
     /// The last `Tick` received.
@@ -386,10 +388,7 @@ impl TelemetryRecorder {
                 route_start_s: route_start_s(truth),
             }),
             hellos: self.hellos,
-            hellos_refused: self.last_refused.clone().map(|last| RefusedHellos {
-                count: self.hellos_refused,
-                last,
-            }),
+            hellos_refused: self.refused.clone(),
             map_rows: self.map_rows,
             map_rows_refused: self.map_rows_refused,
             restarts: self.restarts,
