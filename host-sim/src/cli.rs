@@ -117,10 +117,16 @@ pub struct BenchArgs {
     pub scenario: PathBuf,
 }
 
-/// `--pose`: the three names, listed in `--help` and in the error for any other.
+/// `--pose`: the four names, listed in `--help` and in the error for any other.
 fn pose_mode() -> impl TypedValueParser<Value = PoseMode> {
     PossibleValuesParser::new(
-        [PoseMode::Truth, PoseMode::DeadReckoning, PoseMode::Tags].map(PoseMode::name),
+        [
+            PoseMode::Truth,
+            PoseMode::DeadReckoning,
+            PoseMode::Tags,
+            PoseMode::Slam,
+        ]
+        .map(PoseMode::name),
     )
     .try_map(|name| name.parse::<PoseMode>())
 }

@@ -8,8 +8,8 @@ use crate::score::{map_counts, out_of_place_mask, pose_errors, real_mask, MapCou
 use crate::telemetry::TelemetryWriter;
 use serde::Serialize;
 use slam_core::{
-    Angle, CameraConfig, DepthConfig, FixOutcome, GridGeometry, GridMap, KnownTag, OdometryConfig,
-    Pose, SensorFrame, Slam, SlamConfig, TagMap,
+    Angle, CameraConfig, DepthConfig, FixOutcome, GridGeometry, GridMap, KnownTag, Localiser,
+    OdometryConfig, Pose, SensorFrame, Slam, SlamConfig, TagMap,
 };
 use std::fmt;
 use std::str::FromStr;
@@ -35,6 +35,8 @@ pub enum PoseMode {
     DeadReckoning,
     /// Odometry corrected by two-tag fixes.
     Tags,
+    /// The filter: odometry, every tag sighting and the learned calibration.
+    Slam,
 }
 
 impl PoseMode {
@@ -44,6 +46,16 @@ impl PoseMode {
             PoseMode::Truth => "truth",
             PoseMode::DeadReckoning => "dead-reckoning",
             PoseMode::Tags => "tags",
+            PoseMode::Slam => "slam",
+        }
+    }
+
+    /// What corrects the core's pose in this mode (truth replaces it from outside).
+    pub fn localiser(self) -> Localiser {
+        match self {
+            PoseMode::Truth | PoseMode::DeadReckoning => Localiser::DeadReckoning,
+            PoseMode::Tags => Localiser::TwoTagFix,
+            PoseMode::Slam => Localiser::Filter,
         }
     }
 }
@@ -55,8 +67,9 @@ impl FromStr for PoseMode {
             "truth" => Ok(PoseMode::Truth),
             "dead-reckoning" => Ok(PoseMode::DeadReckoning),
             "tags" => Ok(PoseMode::Tags),
+            "slam" => Ok(PoseMode::Slam),
             other => Err(format!(
-                "unknown pose mode `{other}`: expected truth, dead-reckoning or tags"
+                "unknown pose mode `{other}`: expected truth, dead-reckoning, tags or slam"
             )),
         }
     }
@@ -297,7 +310,7 @@ fn run_sized<const W: usize, const H: usize>(
     mut telemetry: Option<&mut TelemetryWriter>,
 ) -> Result<RunOutput, RunError> {
     let mut config = slam_config(scenario);
-    config.fix.enabled = mode == PoseMode::Tags;
+    config.localiser = mode.localiser();
     let mut robot = Robot::new(scenario, seed);
     let start = to_core_pose(&robot.truth());
     let mut slam: Box<Slam<W, H>> = Box::new(Slam::new(config, start).map_err(RunError::Config)?);

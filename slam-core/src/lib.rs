@@ -12,6 +12,7 @@
 #![warn(missing_docs)]
 
 pub mod angle;
+pub mod estimator;
 pub mod frame;
 pub mod grid;
 pub mod history;
@@ -23,13 +24,16 @@ pub mod slam;
 pub mod tagfix;
 
 pub use angle::Angle;
+pub use estimator::{Calibration, Estimate, PoseCovariance, TagCounters, TagRefusal};
 pub use frame::{
     DepthScan, FlowDelta, GyroRate, SensorFrame, TagDetection, TagDetections, BEAMS, MAX_TAGS,
 };
 pub use grid::{Evidence, GridGeometry, GridMap, LogOdds, Occupancy, OccupancyCounts};
 pub use odometry::OdometryConfig;
 pub use pose::Pose;
-pub use slam::{ConfigError, Counters, DepthConfig, Slam, SlamConfig, Staleness, StepReport};
+pub use slam::{
+    ConfigError, Counters, DepthConfig, Localiser, Slam, SlamConfig, Staleness, StepReport,
+};
 pub use tagfix::{CameraConfig, FixConfig, FixOutcome, FixRejection, KnownTag, TagMap};
 
 /// The seed mat's grid: 46 x 46 cells of 5 cm (2 m plus a 15 cm margin each side).

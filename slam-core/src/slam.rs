@@ -1,6 +1,7 @@
 //! The SLAM loop: one pure `step` per tick, called alike by the firmware and the simulator.
 
 use crate::angle::Angle;
+use crate::estimator::{Estimate, TagCounters};
 use crate::frame::{DepthScan, SensorFrame, BEAMS};
 use crate::grid::{Evidence, GridGeometry, GridMap};
 use crate::history::PoseHistory;
@@ -55,8 +56,22 @@ pub struct SlamConfig {
     pub camera: CameraConfig,
     /// Tags whose places are known.
     pub tags: TagMap,
-    /// When a tag fix is believed.
+    /// How the pose is corrected beyond odometry.
+    pub localiser: Localiser,
+    /// When a two-tag fix is believed ([`Localiser::TwoTagFix`]).
     pub fix: FixConfig,
+}
+
+/// What corrects the pose that odometry predicts.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Localiser {
+    /// Nothing: dead reckoning.
+    DeadReckoning,
+    /// The seed's fix: the pose is replaced by the one two known tags in one picture give.
+    TwoTagFix,
+    /// The filter: every tag sighting updates the pose in proportion to its certainty.
+    Filter,
 }
 
 /// A configuration the core refuses.
@@ -103,6 +118,7 @@ impl SlamConfig {
             odometry: OdometryConfig::NOMINAL,
             camera: CameraConfig::SEED,
             tags: TagMap::new(&TAGS).unwrap_or_default(),
+            localiser: Localiser::TwoTagFix,
             fix: FixConfig::SEED,
         }
     }
@@ -184,6 +200,8 @@ pub struct StepReport {
     pub cells_written: u32,
     /// Totals since start.
     pub counters: Counters,
+    /// The filter's belief after this tick ([`Localiser::Filter`] only).
+    pub estimate: Option<Estimate>,
 }
 
 /// The SLAM state: a pose, a map and the rules to update them.
@@ -234,6 +252,17 @@ impl<const W: usize, const H: usize> Slam<W, H> {
     /// Totals since start.
     pub fn counters(&self) -> &Counters {
         &self.counters
+    }
+
+    /// The filter's belief: the pose's covariance and the learned calibration
+    /// ([`Localiser::Filter`] only).
+    pub fn estimate(&self) -> Option<Estimate> {
+        None
+    }
+
+    /// Tag sightings the filter used and refused, by cause.
+    pub fn tag_counters(&self) -> TagCounters {
+        TagCounters::default()
     }
 
     /// The configuration in use.
@@ -296,11 +325,12 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             stale,
             cells_written,
             counters: self.counters,
+            estimate: self.estimate(),
         }
     }
 
     fn correct(&mut self, frame: &SensorFrame) -> FixOutcome {
-        if !self.config.fix.enabled {
+        if self.config.localiser != Localiser::TwoTagFix {
             return FixOutcome::NotAttempted;
         }
         let Some((a, b)) = tagfix::best_pair(frame.tags.as_slice(), &self.config.tags) else {

@@ -99,8 +99,6 @@ impl CameraConfig {
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct FixConfig {
-    /// Whether tag fixes are taken at all (off: dead reckoning only).
-    pub enabled: bool,
     /// The seen distance between the two tags may differ from the true one by this
     /// many per-mille before the geometry is called inconsistent.
     pub baseline_tolerance_permille: u32,
@@ -122,7 +120,6 @@ pub struct FixConfig {
 impl FixConfig {
     /// Gates sized for the seed mat: a fix may move the pose 30 cm and 20 degrees at most.
     pub const SEED: FixConfig = FixConfig {
-        enabled: true,
         baseline_tolerance_permille: 200,
         min_baseline_mm: 100,
         min_range_mm: 50,

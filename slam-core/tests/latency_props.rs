@@ -443,7 +443,7 @@ impl AgelessCore {
         }
         let motion = odometry::motion(frame.flow, frame.gyro, frame.dt_us, &config.odometry);
         self.pose = odometry::apply(&self.pose, &motion);
-        if !config.fix.enabled {
+        if config.localiser != slam_core::Localiser::TwoTagFix {
             return FixOutcome::NotAttempted;
         }
         let Some((a, b)) = tagfix::best_pair(frame.tags.as_slice(), &config.tags) else {

@@ -58,7 +58,7 @@ struct Run {
 fn drive(with_tags: bool) -> Run {
     let start = Pose::from_mm_mdeg(500, 500, 0);
     let mut slam: Slam<46, 46> = Slam::new(SlamConfig::seed_mat(), start).unwrap();
-    assert!(slam.config().fix.enabled);
+    assert_eq!(slam.config().localiser, slam_core::Localiser::TwoTagFix);
     let mut truth = RefPose {
         x_um: 500_000.0,
         y_um: 500_000.0,

@@ -397,6 +397,7 @@ fn the_schedule() {
         stale: Staleness::default(),
         cells_written: 3,
         counters: Counters::default(),
+        estimate: None,
     };
     let mut kinds = Vec::new();
     for t in 0..51u32 {
@@ -436,6 +437,7 @@ fn tick_carries_the_report() {
             ticks: 4,
             ..Counters::default()
         },
+        estimate: None,
     };
     let t = Tick::new(300, &report);
     assert_eq!(t.pose(), report.pose);
