@@ -11,6 +11,17 @@ use serde::{Deserialize, Deserializer};
 use std::fmt;
 use std::path::Path;
 
+/// The scenario files shipped in `host-sim/scenarios/`, by file name: what a test that
+/// holds "every shipped scenario" to something goes through (a test checks that the list
+/// and the directory agree).
+pub const SHIPPED: [&str; 5] = [
+    "seed-mat.toml",
+    "seed-mat-rough.toml",
+    "one-tag.toml",
+    "two-wall-room.toml",
+    "room-10m.toml",
+];
+
 /// A wall segment, `[[x0, y0], [x1, y1]]` in millimetres.
 pub type Segment = [[f64; 2]; 2];
 
