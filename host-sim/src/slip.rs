@@ -2,7 +2,8 @@
 //!
 //! The model and its options are [`crate::scenario::Slip`]'s: spells of lost speed at
 //! random moments, and a slide of the robot's centre while it turns. Without slip
-//! ([`WheelSlip::none`]) the true motion is the command, bit for bit, and nothing is drawn.
+//! (`WheelSlip::new(None)`) the true motion is the command, bit for bit, and nothing is
+//! drawn.
 
 use crate::robot::Command;
 use crate::scenario::Slip;
