@@ -160,11 +160,14 @@ impl Robot {
             let (dx, dy) = (tx - from.x, ty - from.y);
             let range = dx.hypot(dy);
             let bearing = wrap(heading_of(dx, dy) - from.heading);
+            // Drawn whether or not the tag is in view, so that two worlds that differ in
+            // one tag's place see the same noise on the others.
+            let noise = (self.uniform(), self.uniform());
             if range > s.max_range_mm || bearing.abs() > s.half_view || out.len() >= MAX_TAGS {
                 continue;
             }
-            let range = range + s.range_noise_mm * self.uniform();
-            let bearing = bearing + s.bearing_noise * self.uniform();
+            let range = range + s.range_noise_mm * noise.0;
+            let bearing = bearing + s.bearing_noise * noise.1;
             let _ = out.push(TagDetection {
                 id,
                 cx_centipx: (column_of(bearing) * 100.0).round() as i32,
