@@ -154,21 +154,21 @@ fn sweep(wild: bool) {
             let (speed, rate) = robot.wander();
             let age = (50_000.0 * (1.0 + robot.uniform())) as u32;
             let mut frame = robot.tick(speed, rate, 100_000, age);
-            if rng.next_u64() % 5 == 0 {
+            if rng.next_u64().is_multiple_of(5) {
                 spoil(&mut frame, &mut rng, wild);
             }
             slam.step(&frame);
             let p = slam.estimator().covariance().rows();
-            for i in 0..rf::N {
+            for (i, row) in p.iter().enumerate() {
                 assert!(
-                    p[i][i] >= floor[i],
+                    row[i] >= floor[i],
                     "seed {seed} tick {tick}: variance {i} is {} under its floor {}",
-                    p[i][i],
+                    row[i],
                     floor[i]
                 );
-                for j in 0..rf::N {
+                for (j, v) in row.iter().enumerate() {
                     assert_eq!(
-                        p[i][j], p[j][i],
+                        *v, p[j][i],
                         "seed {seed} tick {tick}: not symmetric at ({i}, {j})"
                     );
                 }

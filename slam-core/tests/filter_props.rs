@@ -380,11 +380,14 @@ proptest! {
 /// 2.29 units (held as 2, -24 %), the walks of 10 ppm and 1 mdps are 0.66 and 1.14 units
 /// (held as 1: +133 % and -23 %); and the per-radian position term is truncated, not
 /// rounded (16 units a radian times a 0.055 rad tick is 0.88 units, held as 0).
+/// A tick to compare: its name, its flow (forward, right counts) and its gyro (mdps).
+type TickReadings = (&'static str, Option<(i32, i32)>, Option<i32>);
+
 #[test]
 #[ignore = "the seed's per-tick noise is rounded to whole covariance units (see the doc)"]
 fn seed_process_noise_matches_the_reference() {
     let config = EstimatorConfig::SEED;
-    let cases: [(&str, Option<(i32, i32)>, Option<i32>); 5] = [
+    let cases: [TickReadings; 5] = [
         ("standing", Some((0, 0)), Some(0)),
         ("driving 86 mm/s", Some((86, 0)), Some(0)),
         ("turning 31.5 deg/s", Some((0, 0)), Some(31_500)),

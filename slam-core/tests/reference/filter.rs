@@ -12,6 +12,9 @@
 //! and applied as two scalar updates, range first, each linearised once at the pose the
 //! picture was taken from.
 
+// Matrix arithmetic reads best with its indices.
+#![allow(clippy::needless_range_loop)]
+
 use super::{heading_of, nose, right, wrap, CENTRE_PX, FOCAL_PX};
 use slam_core::history::HISTORY_LEN;
 use slam_core::{EstimatorConfig, OdometryConfig, SensorFrame, TagMap};
@@ -386,7 +389,7 @@ fn quadratic(a: &Vector, p: &Matrix, b: &Vector) -> f64 {
 pub fn cholesky_of_correlation(p: &Matrix) -> Option<Matrix> {
     let mut c = [[0.0; N]; N];
     for i in 0..N {
-        if !(p[i][i] > 0.0) {
+        if p[i][i].is_nan() || p[i][i] <= 0.0 {
             return None;
         }
         for j in 0..N {
@@ -396,7 +399,7 @@ pub fn cholesky_of_correlation(p: &Matrix) -> Option<Matrix> {
     let mut l = [[0.0; N]; N];
     for j in 0..N {
         let d = c[j][j] - (0..j).map(|k| l[j][k] * l[j][k]).sum::<f64>();
-        if !(d > 0.0) {
+        if d.is_nan() || d <= 0.0 {
             return None;
         }
         l[j][j] = d.sqrt();
