@@ -288,6 +288,52 @@ proptest! {
     }
 }
 
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 256, ..config() })]
+
+    /// The reference checks itself: its sequential update (range, then bearing given the
+    /// range) equals the textbook joint update with the 2 x 2 innovation covariance
+    /// inverted, to 1e-9 of each state's standard deviation and of each entry's scale
+    /// (where no floor or ceiling engages, since the joint form has none).
+    #[test]
+    fn the_reference_sequential_update_is_the_joint_update(
+        ticks in proptest::collection::vec(tick(), 0..60),
+        c in case(),
+    ) {
+        let config = slam_config(EXACT, &[]);
+        let mut slam: Slam<46, 46> = Slam::new(config, c.then).unwrap();
+        for frame in &ticks {
+            slam.step(frame);
+        }
+        let prior = rf::from_integer(slam.estimator().covariance().rows());
+        let (tag, detection) = sighting(&c, &prior, &EXACT);
+        let then = fpose(&c.then);
+        let place = (tag.x_mm as f64, tag.y_mm as f64);
+        let reading = Reading {
+            range_mm: detection.distance_mm as f64,
+            cx_px: detection.cx_centipx as f64 / 100.0,
+        };
+        let joint = rf::joint_update(&prior, &EXACT, &then, place, &reading);
+        prop_assume!(joint.is_ok());
+        let (correction, q) = joint.unwrap_or_default();
+        let mut ungated = EXACT;
+        ungated.gate_chi2_q8 = u32::MAX;
+        let mut p = prior;
+        let update = rf::sight(&mut p, &ungated, &then, place, &reading).unwrap();
+        // Where a bound engaged, the two differ by design.
+        let mut bounded = q;
+        rf::bound(&mut bounded);
+        prop_assume!(rf::worst_difference_on(&bounded, &q, &prior, &[0.0; rf::N]).0 < 1e-12);
+        for i in 0..rf::N {
+            let sd = prior[i][i].sqrt();
+            prop_assert!((update.correction[i] - correction[i]).abs() <= 1e-9 * sd,
+                "state {i}: {} against {}", update.correction[i], correction[i]);
+        }
+        let (share, i, j) = rf::worst_difference_on(&p, &q, &prior, &[0.0; rf::N]);
+        prop_assert!(share <= 1e-9, "entry {:?} off by {share:e}", (i, j));
+    }
+}
+
 /// The seed mat's two tags, where they are listed and where they are.
 const SEED_TAGS: [KnownTag; 2] = [
     KnownTag {

@@ -320,6 +320,38 @@ pub fn sight(
     Ok(Update { correction, chi2 })
 }
 
+/// The same sighting as one joint update, `K = P H^T S^-1` with the 2 x 2 `S` inverted:
+/// the textbook form, against which the sequential one is checked. No gate, no bounds.
+pub fn joint_update(
+    p: &Matrix,
+    c: &EstimatorConfig,
+    then: &FPose,
+    tag: (f64, f64),
+    reading: &Reading,
+) -> Result<(Vector, Matrix), Refusal> {
+    let s = Sighting::new(p, c, then, tag, reading)?;
+    let [[a, b], [_, d]] = s.s;
+    let det = a * d - b * b;
+    let inverse = [[d / det, -b / det], [-b / det, a / det]];
+    // P H^T, one column per measurement.
+    let ph = [mul_vec(p, &s.h[0]), mul_vec(p, &s.h[1])];
+    let mut gain = [[0.0; 2]; N];
+    for i in 0..N {
+        for k in 0..2 {
+            gain[i][k] = (0..2).map(|m| ph[m][i] * inverse[m][k]).sum();
+        }
+    }
+    let mut correction = [0.0; N];
+    let mut q = *p;
+    for i in 0..N {
+        correction[i] = gain[i][0] * s.nu[0] + gain[i][1] * s.nu[1];
+        for j in 0..N {
+            q[i][j] -= gain[i][0] * ph[0][j] + gain[i][1] * ph[1][j];
+        }
+    }
+    Ok((correction, q))
+}
+
 /// Keeps a covariance within its floor and ceiling: a variance past its ceiling scales its
 /// row and column to it (a congruence), one under its floor is raised to it, and each
 /// correlation is kept at or below 0.999.
