@@ -487,19 +487,13 @@ proptest! {
 /// A tick to compare: its name, its flow (forward, right counts) and its gyro (mdps).
 type TickReadings = (&'static str, Option<(i32, i32)>, Option<i32>);
 
-/// The seed's own noise model, one tick at a time: what the filter adds to the variances of
-/// x and of the heading over one tick from the start, against the reference, for a robot
-/// standing, driving at the seed's 86 mm/s, turning on the spot at its 31.5 deg/s, and
-/// with each reading stale. Each within 10 % plus the propagation's own rounding.
-///
-/// Ignored: it fails today. The filter rounds each noise term's standard deviation to its
-/// covariance unit before squaring it, and the seed's per-tick figures are a few units or
-/// less: position 170 um is 2.72 units (held as 3, +22 % in variance), heading 2 mdeg is
-/// 2.29 units (held as 2, -24 %), the walks of 10 ppm and 1 mdps are 0.66 and 1.14 units
-/// (held as 1: +133 % and -23 %); and the per-radian position term is truncated, not
-/// rounded (16 units a radian times a 0.055 rad tick is 0.88 units, held as 0).
+/// The seed's own noise model: what the filter adds to the variances over 100 ticks from
+/// the start, against the reference, for a robot standing, driving at the seed's 86 mm/s,
+/// turning on the spot at its 31.5 deg/s, and with each reading stale. Each within 10 %
+/// plus the propagation's own rounding. The per-tick noise of the seed is a few covariance
+/// units or less; the filter forms it in 1/256 units and carries the fraction to the next
+/// tick, so that over many ticks none of it is lost.
 #[test]
-#[ignore = "the seed's per-tick noise is rounded to whole covariance units (see the doc)"]
 fn seed_process_noise_matches_the_reference() {
     let config = EstimatorConfig::SEED;
     let cases: [TickReadings; 5] = [
@@ -509,6 +503,7 @@ fn seed_process_noise_matches_the_reference() {
         ("flow stale", None, Some(0)),
         ("gyro stale", Some((0, 0)), None),
     ];
+    const TICKS: usize = 100;
     let mut off = Vec::new();
     for (name, flow, gyro) in cases {
         let start = SlamConfig::SEED_START;
@@ -527,8 +522,10 @@ fn seed_process_noise_matches_the_reference() {
             right_counts: r,
         });
         frame.gyro = gyro.map(|g| GyroRate { rate_mdps: g });
-        slam.step(&frame);
-        reference.step(&frame);
+        for _ in 0..TICKS {
+            slam.step(&frame);
+            reference.step(&frame);
+        }
         let after = covariance(&slam);
         // x moves with nothing else on these ticks (its Jacobian's row is zero), the heading
         // with the gyro bias's variance (rounded once); the calibration alone.
@@ -546,7 +543,7 @@ fn seed_process_noise_matches_the_reference() {
             let unit = rf::unit(i).powi(2);
             let got = (after[i][i] - before[i][i]) / unit;
             let want = (reference.p[i][i] - before[i][i]) / unit;
-            if (got - want).abs() > 0.1 * want.abs() + 0.05 {
+            if (got - want).abs() > 0.1 * want.abs() + 1.0 {
                 off.push(format!(
                     "{name}: {state} grew {got:.2} units, want {want:.2}"
                 ));

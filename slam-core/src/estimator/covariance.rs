@@ -63,36 +63,47 @@ impl Covariance {
         &self.m
     }
 
-    /// `F P F^T` for `F = I + D`, `D` given by its nonzero Q16 entries, as
-    /// `P + D P + (D P)^T + D P D^T`: `D` has only pose rows, so `D P` has only those
-    /// rows and `D P D^T` only their block.
+    /// `F P F^T + Q` for `F = I + D`, `D` given by its nonzero Q16 entries and `Q` by its
+    /// diagonal, as `P + D P + (D P)^T + D P D^T + Q`: `D` has only pose rows, so `D P`
+    /// has only those rows and `D P D^T` only their block. Formed in 64 bits; a variance
+    /// past its ceiling then scales its row and column down (a congruence, which keeps
+    /// the matrix positive definite) before the matrix goes back to 32 bits.
     #[inline(never)]
-    pub fn propagate(&mut self, d: &[Entry]) {
+    pub fn propagate(&mut self, d: &[Entry], noise: &[i64; N], ceiling: &[i32; N]) {
         // A tick's Jacobian entries are a tick's displacement and turn: within 1.0 in
         // Q16 at any speed the robot drives, two 32-bit multiplies each.
-        if d.iter().all(|&(_, _, v)| v.unsigned_abs() <= 1 << 16) {
-            self.propagate_with(d, |p, v| i64::from(mul_q16_32(p, v)));
+        let next = if d.iter().all(|&(_, _, v)| v.unsigned_abs() <= 1 << 16) {
+            self.propagated(d, |p, v| i64::from(mul_q16_32(clamp32(p), v)))
         } else {
-            self.propagate_with(d, |p, v| (wide_mul(p, v) + (1 << 15)) >> 16);
-        }
-    }
-
-    fn propagate_with(&mut self, d: &[Entry], mul: impl Fn(i32, i32) -> i64) {
-        let mut dp = [[0i64; N]; N];
-        for &(i, k, v) in d {
-            let (i, k) = (i as usize, k as usize);
-            for (out, p) in dp[i].iter_mut().zip(self.m[k]) {
-                *out += mul(p, v);
-            }
+            self.propagated(d, |p, v| mul_shift(p, i64::from(v), 16))
+        };
+        let mut scale = [0i64; N];
+        let mut any = false;
+        for i in 0..N {
+            let v = next[i][i].saturating_add(noise[i]).max(1);
+            scale[i] = if v > i64::from(ceiling[i]) {
+                any = true;
+                // sqrt(ceiling / v) in Q16.
+                let ratio = (u128::from(ceiling[i].max(0) as u32) << 32) / v as u128;
+                isqrt(ratio.min(u64::MAX as u128) as u64) as i64
+            } else {
+                1 << 16
+            };
         }
         for i in 0..N {
             for j in i..N {
-                let mut v = i64::from(self.m[i][j]) + dp[i][j] + dp[j][i];
-                for &(r, k, q) in d {
-                    if r as usize == j {
-                        v += mul(clamp32(dp[i][k as usize]), q);
-                    }
+                let mut v = next[i][j];
+                if i == j {
+                    v = v.saturating_add(noise[i]);
                 }
+                if any {
+                    v = mul_shift(mul_shift(v, scale[i], 16), scale[j], 16);
+                }
+                let v = if i == j {
+                    v.min(i64::from(ceiling[i]))
+                } else {
+                    v
+                };
                 let v = clamp32(v);
                 self.m[i][j] = v;
                 self.m[j][i] = v;
@@ -100,11 +111,29 @@ impl Covariance {
         }
     }
 
-    /// Adds process noise to the diagonal.
-    pub fn add_diagonal(&mut self, q: [i64; N]) {
-        for (i, q) in q.iter().enumerate() {
-            self.m[i][i] = clamp32(i64::from(self.m[i][i]) + q);
+    /// The upper triangle of `P + D P + (D P)^T + D P D^T`, in 64 bits; `mul(p, v)` is
+    /// `p v / 2^16`.
+    fn propagated(&self, d: &[Entry], mul: impl Fn(i64, i32) -> i64) -> [[i64; N]; N] {
+        let mut dp = [[0i64; N]; N];
+        for &(i, k, v) in d {
+            let (i, k) = (i as usize, k as usize);
+            for (out, p) in dp[i].iter_mut().zip(self.m[k]) {
+                *out += mul(i64::from(p), v);
+            }
         }
+        let mut next = [[0i64; N]; N];
+        for i in 0..N {
+            for j in i..N {
+                let mut v = i64::from(self.m[i][j]) + dp[i][j] + dp[j][i];
+                for &(r, k, q) in d {
+                    if r as usize == j {
+                        v += mul(dp[i][k as usize], q);
+                    }
+                }
+                next[i][j] = v;
+            }
+        }
+        next
     }
 
     /// `P h^T` for a sparse Q16 row `h` whose entries are within 1.0 (a direction's sine
@@ -179,20 +208,27 @@ impl Covariance {
         }
     }
 
-    /// [`Covariance::bound_variances`], and each correlation kept below one by 2^-10,
-    /// against the rounding of many updates.
+    /// [`Covariance::bound_variances`], and each correlation kept below one by about
+    /// 2^-10, against the rounding of many updates. A pair too closely correlated has both
+    /// its variances raised by 2^-9 rather than its covariance cut: adding to the diagonal
+    /// keeps a positive definite matrix so (and makes a nearly indefinite one definite),
+    /// where cutting one entry of a nearly singular matrix can break it.
     pub fn bound(&mut self, floor: &[i32; N], ceiling: &[i32; N]) {
-        self.bound_variances(floor, ceiling);
         for i in 0..N {
             for j in i + 1..N {
                 // Variances are positive here: squares compared, 32 x 32 bits.
                 let v = self.m[i][j].unsigned_abs();
-                let limit = wide_mul_unsigned(self.m[i][i] as u32, self.m[j][j] as u32);
+                let limit =
+                    wide_mul_unsigned(self.m[i][i].max(0) as u32, self.m[j][j].max(0) as u32);
                 if wide_mul_unsigned(v, v) > limit - (limit >> 9) {
-                    self.clamp_correlation(i, j);
+                    for k in [i, j] {
+                        let d = self.m[k][k];
+                        self.m[k][k] = d.saturating_add((d >> 9) + 1);
+                    }
                 }
             }
         }
+        self.bound_variances(floor, ceiling);
     }
 
     /// Scales row and column `i` by `sqrt(ceiling / P_ii)` so that `P_ii` is `ceiling`.
@@ -209,16 +245,5 @@ impl Covariance {
             }
         }
         self.m[i][i] = ceiling;
-    }
-
-    /// Sets `P_ij` to `(1 - 2^-10) sqrt(P_ii P_jj)`, keeping its sign.
-    #[cold]
-    fn clamp_correlation(&mut self, i: usize, j: usize) {
-        let product = wide_mul_unsigned(self.m[i][i].max(0) as u32, self.m[j][j].max(0) as u32);
-        let root = isqrt(product) as i64;
-        let limit = clamp32(root - (root >> 10) - 1);
-        let v = self.m[i][j].clamp(-limit, limit);
-        self.m[i][j] = v;
-        self.m[j][i] = v;
     }
 }

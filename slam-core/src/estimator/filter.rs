@@ -166,7 +166,6 @@ impl Estimator {
             push((State::Heading, State::GyroScale, q16(turn)));
             push((State::Heading, State::GyroBias, q16(-dt)));
         }
-        self.p.propagate(d.get(..n).unwrap_or(&[]));
         // The noise in 1/256 units, its fraction carried to the next tick.
         let mut q = self.process_noise_q8(dx, dy, turn, flow, gyro);
         for (q, carry) in q.iter_mut().zip(self.noise_carry.iter_mut()) {
@@ -174,7 +173,7 @@ impl Estimator {
             *carry = (total & 0xFF) as u8;
             *q = total >> 8;
         }
-        self.p.add_diagonal(q);
+        self.p.propagate(d.get(..n).unwrap_or(&[]), &q, &CEILING);
         self.p.bound_variances(&FLOOR, &CEILING);
     }
 

@@ -443,7 +443,7 @@ pub fn cholesky_of_correlation(p: &Matrix) -> Option<Matrix> {
 }
 
 /// The integer filter's covariance in the reference's units.
-pub fn from_integer(rows: &[[i64; N]; N]) -> Matrix {
+pub fn from_integer(rows: &[[i32; N]; N]) -> Matrix {
     let mut m = [[0.0; N]; N];
     for i in 0..N {
         for j in 0..N {
