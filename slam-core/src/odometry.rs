@@ -19,6 +19,10 @@ pub struct OdometryConfig {
     pub flow_um_per_count_q16: i32,
     /// Gyro scale correction in parts per million (0 = the driver's rate is taken as is).
     pub gyro_scale_ppm: i32,
+    /// Where the flow sensor sits relative to the turning axis, micrometres ahead and to
+    /// the right: off the axis it sees the floor swing past in every turn, which is not
+    /// the robot moving, and is taken off by the turn the gyro measured.
+    pub flow_offset_um: [i32; 2],
 }
 
 impl OdometryConfig {
@@ -26,6 +30,7 @@ impl OdometryConfig {
     pub const NOMINAL: OdometryConfig = OdometryConfig {
         flow_um_per_count_q16: 100 << 16,
         gyro_scale_ppm: 0,
+        flow_offset_um: [0, 0],
     };
 }
 
@@ -108,12 +113,21 @@ pub fn motion(
     config: &OdometryConfig,
 ) -> Motion {
     let turn_bits = gyro.map_or(0, |g| turn_bits_from_gyro(g, dt_us, config));
-    let (forward_um, right_um) = flow.map_or((0, 0), |f| {
+    let (mut forward_um, mut right_um) = flow.map_or((0, 0), |f| {
         (
             counts_um(f.forward_counts, config.flow_um_per_count_q16),
             counts_um(f.right_counts, config.flow_um_per_count_q16),
         )
     });
+    if flow.is_some() && config.flow_offset_um != [0, 0] {
+        // Turning clockwise by t swings a sensor `a` ahead and `r` right of the axis by
+        // (-t r, t a) along (forward, right): the floor it saw move that was not the robot.
+        let [ahead, right] = config.flow_offset_um;
+        let turn_rad_q32 = i128::from(turn_bits) * 26_986_075_409; // 2 pi in Q32
+        let lever = |offset: i32| ((i128::from(offset) * turn_rad_q32) >> 64) as i64;
+        forward_um += lever(right);
+        right_um -= lever(ahead);
+    }
     Motion {
         turn_bits,
         forward_um,
