@@ -208,7 +208,11 @@ pub fn slam_config(s: &Scenario) -> SlamConfig {
     config.odometry = OdometryConfig {
         flow_um_per_count_q16: (s.sensors.flow.um_per_count * 65536.0).round() as i32,
         gyro_scale_ppm: 0,
-        flow_offset_um: s.sensors.flow.offset_mm.map(|mm| (mm * 1000.0).round() as i32),
+        flow_offset_um: s
+            .sensors
+            .flow
+            .offset_mm
+            .map(|mm| (mm * 1000.0).round() as i32),
     };
     config.camera = CameraConfig {
         focal_centipx: (s.sensors.camera.focal_px * 100.0).round() as i32,

@@ -158,37 +158,51 @@ impl Covariance {
         c
     }
 
-    /// The scalar update `P - a a^T / s` with `a = P h^T` and `s = h a + r`, given `a` and
-    /// `1 / s`. Returns the gain `a / s` (Q[`GAIN_SHIFT`]).
+    /// Two scalar updates at once, `P - a1 a1^T / s1 - a2 a2^T / s2`, where each `a` is
+    /// `P h^T` and each `s` is `h a + r` for its measurement, the second's already
+    /// conditioned on the first (so the pair is the sequential update, in one pass over
+    /// the matrix). Given each `a` and `1 / s`; returns each gain `a / s`
+    /// (Q[`GAIN_SHIFT`]).
     #[inline(never)]
-    pub fn update(&mut self, a: &[i64; N], s: &Reciprocal) -> [i64; N] {
-        let mut k = [0i64; N];
-        for (k, a) in k.iter_mut().zip(a) {
-            *k = s.times(*a, GAIN_SHIFT);
-        }
-        match (narrow(&k), narrow(a)) {
+    pub fn update(&mut self, updates: [(&[i64; N], &Reciprocal); 2]) -> [[i64; N]; 2] {
+        let [(a1, s1), (a2, s2)] = updates;
+        let gains = |a: &[i64; N], s: &Reciprocal| {
+            let mut k = [0i64; N];
+            for (k, a) in k.iter_mut().zip(a) {
+                *k = s.times(*a, GAIN_SHIFT);
+            }
+            k
+        };
+        let (k1, k2) = (gains(a1, s1), gains(a2, s2));
+        match (narrow(&k1), narrow(a1), narrow(&k2), narrow(a2)) {
             // A working filter's gains and `P h` fit 32 bits: 32 x 32 multiplies.
-            (Some(k32), Some(a32)) => {
+            (Some(k1), Some(a1), Some(k2), Some(a2)) => {
                 for i in 0..N {
                     for j in i..N {
-                        let d = (wide_mul(k32[i], a32[j]) + (1 << (GAIN_SHIFT - 1))) >> GAIN_SHIFT;
+                        let d = (wide_mul(k1[i], a1[j])
+                            + wide_mul(k2[i], a2[j])
+                            + (1 << (GAIN_SHIFT - 1)))
+                            >> GAIN_SHIFT;
                         let v = clamp32(i64::from(self.m[i][j]) - d);
                         self.m[i][j] = v;
                         self.m[j][i] = v;
                     }
                 }
             }
-            _ => self.update_wide(&k, a),
+            _ => self.update_wide([(&k1, a1), (&k2, a2)]),
         }
-        k
+        [k1, k2]
     }
 
     #[cold]
     #[inline(never)]
-    fn update_wide(&mut self, k: &[i64; N], a: &[i64; N]) {
+    fn update_wide(&mut self, updates: [(&[i64; N], &[i64; N]); 2]) {
         for i in 0..N {
             for j in i..N {
-                let v = clamp32(i64::from(self.m[i][j]) - mul_shift(k[i], a[j], GAIN_SHIFT));
+                let d = updates.iter().fold(0i64, |d, (k, a)| {
+                    d.saturating_add(mul_shift(k[i], a[j], GAIN_SHIFT))
+                });
+                let v = clamp32(i64::from(self.m[i][j]).saturating_sub(d));
                 self.m[i][j] = v;
                 self.m[j][i] = v;
             }
