@@ -902,12 +902,14 @@ mod tests {
                     heading_error_deg: 0.3 * t * if i % 2 == 0 { 1.0 } else { -1.0 },
                     out_of_place_pct: if t > 2.0 { 100.0 / 168.0 } else { 0.0 },
                     fix_taken: i % 17 == 0,
+                    belief: None,
                 }
             })
             .collect();
         RunRecord {
             scenario: "square-room".into(),
             pose_mode: "tags".into(),
+            true_calibration: None,
             ticks,
             map: MapSnapshot {
                 width: N,
@@ -1004,6 +1006,7 @@ mod tests {
         let bare = RunRecord {
             scenario: String::new(),
             pose_mode: String::new(),
+            true_calibration: None,
             ticks: Vec::new(),
             map: MapSnapshot {
                 width: 0,
