@@ -219,6 +219,10 @@ pub fn slam_config(s: &Scenario) -> SlamConfig {
         centre_centipx: (s.sensors.camera.width_px * 50.0).round() as i32,
     };
     config.tags = TagMap::new(&tags).unwrap_or_default();
+    // The filter refuses what this camera cannot see: beyond its range, or a tag whose
+    // listed place is outside its view (with 10 degrees for the pose's own error).
+    config.estimator.max_range_mm = s.sensors.camera.max_range_mm.round() as u32;
+    config.estimator.half_view_mdeg = (s.sensors.camera.fov_deg * 500.0 + 10_000.0).round() as u32;
     config
 }
 

@@ -24,7 +24,9 @@ pub mod slam;
 pub mod tagfix;
 
 pub use angle::Angle;
-pub use estimator::{Calibration, Estimate, PoseCovariance, TagCounters, TagRefusal};
+pub use estimator::{
+    Calibration, Estimate, Estimator, EstimatorConfig, PoseCovariance, TagCounters, TagRefusal,
+};
 pub use frame::{
     DepthScan, FlowDelta, GyroRate, SensorFrame, TagDetection, TagDetections, BEAMS, MAX_TAGS,
 };

@@ -1,7 +1,7 @@
 //! The SLAM loop: one pure `step` per tick, called alike by the firmware and the simulator.
 
 use crate::angle::Angle;
-use crate::estimator::{Estimate, TagCounters};
+use crate::estimator::{Estimate, Estimator, EstimatorConfig, TagCounters, TagRefusal};
 use crate::frame::{DepthScan, SensorFrame, BEAMS};
 use crate::grid::{Evidence, GridGeometry, GridMap};
 use crate::history::PoseHistory;
@@ -60,6 +60,8 @@ pub struct SlamConfig {
     pub localiser: Localiser,
     /// When a two-tag fix is believed ([`Localiser::TwoTagFix`]).
     pub fix: FixConfig,
+    /// The filter's noise model and gate ([`Localiser::Filter`]).
+    pub estimator: EstimatorConfig,
 }
 
 /// What corrects the pose that odometry predicts.
@@ -120,6 +122,7 @@ impl SlamConfig {
             tags: TagMap::new(&TAGS).unwrap_or_default(),
             localiser: Localiser::TwoTagFix,
             fix: FixConfig::SEED,
+            estimator: EstimatorConfig::SEED,
         }
     }
 
@@ -214,6 +217,7 @@ pub struct Slam<const W: usize, const H: usize> {
     map: GridMap<W, H>,
     counters: Counters,
     gate_rejections_in_a_row: u8,
+    estimator: Estimator,
 }
 
 impl<const W: usize, const H: usize> Slam<W, H> {
@@ -227,6 +231,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             map: GridMap::new(config.geometry, config.evidence),
             counters: Counters::default(),
             gate_rejections_in_a_row: 0,
+            estimator: Estimator::new(config.estimator),
         })
     }
 
@@ -237,6 +242,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         self.map.clear();
         self.counters = Counters::default();
         self.gate_rejections_in_a_row = 0;
+        self.estimator = Estimator::new(self.config.estimator);
     }
 
     /// The current pose estimate.
@@ -257,12 +263,17 @@ impl<const W: usize, const H: usize> Slam<W, H> {
     /// The filter's belief: the pose's covariance and the learned calibration
     /// ([`Localiser::Filter`] only).
     pub fn estimate(&self) -> Option<Estimate> {
-        None
+        (self.config.localiser == Localiser::Filter).then(|| self.estimator.estimate())
     }
 
     /// Tag sightings the filter used and refused, by cause.
     pub fn tag_counters(&self) -> TagCounters {
-        TagCounters::default()
+        *self.estimator.counters()
+    }
+
+    /// The filter itself, for tests and for reading its whole covariance.
+    pub fn estimator(&self) -> &Estimator {
+        &self.estimator
     }
 
     /// The configuration in use.
@@ -293,6 +304,10 @@ impl<const W: usize, const H: usize> Slam<W, H> {
                 self.pose = p;
                 self.history.push(p, frame.dt_us);
                 FixOutcome::NotAttempted
+            }
+            None if self.config.localiser == Localiser::Filter => {
+                self.predict_filtered(frame);
+                self.filter_tags(frame)
             }
             None => {
                 let motion =
@@ -327,6 +342,61 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             counters: self.counters,
             estimate: self.estimate(),
         }
+    }
+
+    /// Dead reckoning with the learned calibration, and the covariance carried along.
+    fn predict_filtered(&mut self, frame: &SensorFrame) {
+        let odometry = self.estimator.odometry(&self.config.odometry);
+        let gyro = frame.gyro.map(|g| self.estimator.unbias(g));
+        let motion = odometry::motion(frame.flow, gyro, frame.dt_us, &odometry);
+        let before = self.pose;
+        self.pose = odometry::apply(&before, &motion);
+        self.history.push(self.pose, frame.dt_us);
+        self.estimator.predict(
+            &before,
+            &self.pose,
+            &motion,
+            frame.dt_us,
+            frame.flow.is_some(),
+            gyro.is_some(),
+        );
+    }
+
+    /// Every tag in the picture, one update each at the picture's moment; each taken
+    /// correction carries the remembered poses and the pose now, as a fix does.
+    fn filter_tags(&mut self, frame: &SensorFrame) -> FixOutcome {
+        let mut outcome = FixOutcome::NotAttempted;
+        for detection in frame.tags.iter() {
+            let then = self.history.at(frame.tags_age_us);
+            let tag = self.config.tags.get(detection.id);
+            match self
+                .estimator
+                .sight(detection, tag, &self.config.camera, then)
+            {
+                Ok(corrected) => {
+                    if let Some(then) = then {
+                        self.history
+                            .carry(&RigidMotion::carrying(&then, &corrected));
+                        self.pose = self.history.newest();
+                    }
+                    outcome = FixOutcome::Taken;
+                }
+                Err(TagRefusal::Gate) if outcome != FixOutcome::Taken => {
+                    outcome = FixOutcome::Rejected(FixRejection::Gate);
+                }
+                Err(TagRefusal::TooOld) if outcome == FixOutcome::NotAttempted => {
+                    outcome = FixOutcome::Rejected(FixRejection::TooOld);
+                }
+                Err(_) => {}
+            }
+        }
+        match outcome {
+            FixOutcome::Taken => self.counters.fixes_taken += 1,
+            FixOutcome::Rejected(FixRejection::Gate) => self.counters.fixes_rejected_gate += 1,
+            FixOutcome::Rejected(FixRejection::TooOld) => self.counters.fixes_rejected_too_old += 1,
+            _ => {}
+        }
+        outcome
     }
 
     fn correct(&mut self, frame: &SensorFrame) -> FixOutcome {

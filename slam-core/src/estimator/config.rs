@@ -1,0 +1,86 @@
+//! What the filter is told about its sensors: their noise, the uncertainty it starts
+//! with, and how much disagreement it believes.
+
+/// The filter's noise model and gate, in the units of datasheets.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct EstimatorConfig {
+    /// Standard deviation of the start position along each axis, millimetres.
+    pub initial_position_mm: u32,
+    /// Standard deviation of the start heading, millidegrees.
+    pub initial_heading_mdeg: u32,
+    /// Standard deviation of the gyro's scale error before any is learned, ppm.
+    pub initial_gyro_scale_ppm: u32,
+    /// Standard deviation of the gyro's remaining bias at start, millidegrees per second.
+    pub initial_gyro_bias_mdps: u32,
+    /// Standard deviation of the flow sensor's scale error before any is learned, ppm.
+    pub initial_flow_scale_ppm: u32,
+    /// Position noise per tick along each axis, micrometres (the flow sensor's own noise,
+    /// which piles up even when turning on the spot).
+    pub position_noise_um: u32,
+    /// Position noise per tick as a share of the distance driven that tick, ppm (slip,
+    /// what the learned flow scale has not caught).
+    pub position_noise_ppm: u32,
+    /// Position noise per tick per radian turned that tick, micrometres (a flow sensor
+    /// off the turning axis, wheel scrub).
+    pub position_noise_um_per_rad: u32,
+    /// Heading noise per tick, millidegrees (the gyro's own noise).
+    pub heading_noise_mdeg: u32,
+    /// Heading noise per tick as a share of the angle turned that tick, ppm.
+    pub heading_noise_ppm: u32,
+    /// Random walk of the gyro's bias per tick, millidegrees per second.
+    pub gyro_bias_walk_mdps: u32,
+    /// Random walk of the gyro's scale per tick, ppm.
+    pub gyro_scale_walk_ppm: u32,
+    /// Random walk of the flow sensor's scale per tick, ppm.
+    pub flow_scale_walk_ppm: u32,
+    /// Position noise of a tick with no flow reading, millimetres per axis.
+    pub stale_flow_mm: u32,
+    /// Heading noise of a tick with no gyro reading, millidegrees.
+    pub stale_gyro_mdeg: u32,
+    /// The camera's range noise: a constant part, millimetres...
+    pub range_noise_mm: u32,
+    /// ... and a part proportional to the range, per mille.
+    pub range_noise_permille: u32,
+    /// The camera's bearing noise, millidegrees.
+    pub bearing_noise_mdeg: u32,
+    /// Tags read further than this, millimetres, are refused.
+    pub max_range_mm: u32,
+    /// A tag whose listed place is further off the nose than this from the believed pose,
+    /// millidegrees, cannot be in the picture: refused.
+    pub half_view_mdeg: u32,
+    /// The gate: a sighting whose squared Mahalanobis distance (chi-square, 2 degrees of
+    /// freedom) exceeds this, in Q8, is refused. 13.8 (3533) refuses one honest sighting
+    /// in a thousand.
+    pub gate_chi2_q8: u32,
+}
+
+impl EstimatorConfig {
+    /// BugBot's sensors as the seed describes them: a PMW3901 at 100 um a count with
+    /// 0.5 counts of noise per 100 Hz reading, a gyro with 0.1 deg/s of noise per 200 Hz
+    /// sample and up to 1 % scale error, a flow scale known to 5 %, and a camera reading
+    /// tags to 1.5 m with 2 mm of range noise and 0.15 px of a 92.4 px focal length.
+    pub const SEED: EstimatorConfig = EstimatorConfig {
+        initial_position_mm: 2,
+        initial_heading_mdeg: 500,
+        initial_gyro_scale_ppm: 10_000,
+        initial_gyro_bias_mdps: 100,
+        initial_flow_scale_ppm: 50_000,
+        position_noise_um: 170,
+        position_noise_ppm: 10_000,
+        position_noise_um_per_rad: 1_000,
+        heading_noise_mdeg: 2,
+        heading_noise_ppm: 500,
+        gyro_bias_walk_mdps: 1,
+        gyro_scale_walk_ppm: 10,
+        flow_scale_walk_ppm: 10,
+        stale_flow_mm: 10,
+        stale_gyro_mdeg: 3_000,
+        range_noise_mm: 2,
+        range_noise_permille: 1,
+        bearing_noise_mdeg: 100,
+        max_range_mm: 1500,
+        half_view_mdeg: 70_000,
+        gate_chi2_q8: 3533,
+    };
+}
