@@ -381,3 +381,44 @@ fn a_bad_truth_file_is_refused_naming_the_line() {
     assert_eq!(out.status.code(), Some(2));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn the_filters_figures_survive_the_telemetry() {
+    // `run --pose slam` and `view --truth --scenario` of its stream give the same
+    // `estimator` object: covariance, calibration and tags travel whole.
+    let dir = scratch("slam");
+    let stream = dir.join("slam.bin");
+    let out = host_sim(&[
+        "run",
+        path_str(&seed_path()),
+        "--pose",
+        "slam",
+        "--telemetry",
+        path_str(&stream),
+        "--json",
+    ]);
+    assert_eq!(out.status.code(), Some(0));
+    let sim: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_default();
+    let scenario = Scenario::load(&seed_path()).expect("seed scenario loads");
+    let output = run(&scenario, PoseMode::Slam, scenario.seed).expect("seed runs");
+    let truth = dir.join("truth.jsonl");
+    std::fs::write(&truth, truth_lines(&output.record).join("\n") + "\n").ok();
+    let v = view_json(&[
+        "view",
+        path_str(&stream),
+        "--truth",
+        path_str(&truth),
+        "--scenario",
+        path_str(&seed_path()),
+        "--json",
+        "--out",
+        path_str(&dir),
+    ]);
+    assert_eq!(v["localiser"], "slam", "{v}");
+    assert_eq!(v["filters_unmatched"], 0, "{v}");
+    let (e, s) = (&v["estimator"], &sim["estimator"]);
+    assert!(s.is_object(), "run --pose slam has an estimator: {sim}");
+    assert_eq!(e, s, "view {e}\nrun {s}");
+    assert!(dir.join("slam-chart.png").is_file());
+    let _ = std::fs::remove_dir_all(&dir);
+}
