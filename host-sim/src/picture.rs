@@ -321,22 +321,25 @@ fn ellipse_ticks(record: &RunRecord) -> impl Iterator<Item = ((f64, f64), Belief
     })
 }
 
-/// How much the ellipses are magnified: 1 when the median one is already a few pixels
-/// across, else the smallest of 2, 5, 10, ... that makes it so. `None` without ellipses.
+/// Ellipses drawn wider than this across the map (the first seconds, before any tag) are
+/// drawn faint, so that they do not hide the path, pixels of semi-major axis.
+const ELLIPSE_FAINT_PX: f64 = 40.0;
+
+/// How much the ellipses are magnified: the smallest of 1, 2, 5, 10, ... that draws the
+/// median one at least a few pixels across. `None` without ellipses.
 fn ellipse_scale(record: &RunRecord, mm_per_px: f64) -> Option<f64> {
     let mut majors: Vec<f64> = ellipse_ticks(record)
-        .map(|(_, b)| 3.0 * b.position_axes().0.sqrt())
+        .map(|(_, b)| 3.0 * b.position_axes().0.sqrt() / mm_per_px.max(1e-9))
         .filter(|a| a.is_finite())
         .collect();
     if majors.is_empty() {
         return None;
     }
     majors.sort_by(|a, b| a.total_cmp(b));
-    let median_px = majors[majors.len() / 2] / mm_per_px.max(1e-9);
-    let wanted_px = 6.0;
+    let median_px = majors[majors.len() / 2];
     let scale = [1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 500.0, 1000.0]
         .into_iter()
-        .find(|k| median_px * k >= wanted_px)
+        .find(|k| median_px * k >= 5.0)
         .unwrap_or(1000.0);
     Some(scale)
 }
@@ -530,10 +533,16 @@ where
     if let Some(scale) = ellipse_scale(record, mm_per_px) {
         for (centre, belief) in ellipse_ticks(record) {
             let outline = ellipse_points(centre, &belief, scale);
+            let major_px = 3.0 * belief.position_axes().0.sqrt() * scale / mm_per_px;
+            let alpha = if major_px > ELLIPSE_FAINT_PX {
+                0.2
+            } else {
+                0.85
+            };
             if outline.len() > 2 {
                 plot.draw(&PathElement::new(
                     outline,
-                    ELLIPSE.mix(0.85).stroke_width(1),
+                    ELLIPSE.mix(alpha).stroke_width(1),
                 ))?;
             }
         }
@@ -596,7 +605,7 @@ where
     let (w, _) = area.dim_in_pixel();
     let note = match ellipse_scale {
         Some(k) if k > 1.0 => format!(
-            "○ start   ● end   of each path   ·   purple: the filter's 3σ position ellipse each second, drawn ×{k:.0}"
+            "○ start   ● end   of each path   ·   purple: the filter's 3σ position ellipse each second, drawn ×{k:.0} (faint when large)"
         ),
         Some(_) => "○ start   ● end   of each path   ·   purple: the filter's 3σ position ellipse each second".to_string(),
         None => "○ start   ● end   of each path".to_string(),
@@ -1201,8 +1210,8 @@ mod tests {
         for (i, t) in record.ticks.iter_mut().enumerate() {
             let learned = 1.0 - (-(i as f64) / 20.0).exp();
             t.belief = Some(Belief {
-                // A 3-sigma ellipse of 150 mm by 60 mm, big enough to see unmagnified.
-                xx_mm2: 2500.0,
+                // A 3-sigma ellipse of 90 mm by 60 mm: seen unmagnified, not faint.
+                xx_mm2: 900.0,
                 xy_mm2: 0.0,
                 yy_mm2: 400.0,
                 hh_deg2: 0.04,
@@ -1218,10 +1227,10 @@ mod tests {
         chart_png(&record, &chart).expect("chart");
         assert_eq!(decode(&chart).0, FILTER_CHART_SIZE.0);
         assert_eq!(decode(&chart).1, FILTER_CHART_SIZE.1);
-        // The first tick's ellipse: its right-hand end is 150 mm east of the estimate.
+        // The first tick's ellipse: its right-hand end is 90 mm east of the estimate.
         let img = decode(&map);
         let t0 = &record.ticks[0];
-        let (x, y) = geometry.to_px((t0.estimate_mm.0 + 150.0, t0.estimate_mm.1));
+        let (x, y) = geometry.to_px((t0.estimate_mm.0 + 90.0, t0.estimate_mm.1));
         let purple = (x - 2..=x + 2)
             .flat_map(|x| (y - 2..=y + 2).map(move |y| (x, y)))
             .any(|p| {
