@@ -12,12 +12,15 @@
 //! | `name`, `seed` | a name for titles and the pictures' file names (letters, digits, `-`, `_`, `.`); the noise seed (`--seed` overrides) |
 //! | `world.walls` | wall segments `[[x0, y0], [x1, y1]]`: the mat's edges, inner walls, boxes; with the tags and the start, on the grid (from its origin up and right) |
 //! | `world.wall_tolerance_mm` | an occupied cell whose centre is this close to a wall is in place |
-//! | `[[world.tags]]` `id`, `x_mm`, `y_mm`, `width_mm`, `facing_deg` | an AprilTag card: the depth sensor sees the card, the camera reads the face |
+//! | `[[world.tags]]` `id`, `x_mm`, `y_mm`, `width_mm`, `facing_deg` (optional: a world may have no tags) | an AprilTag card: the depth sensor sees the card, the camera reads the face |
 //! | `start` `x_mm`, `y_mm`, `heading_deg` | the true start, clear of every wall by `wall_tolerance_mm`; the core starts believing it |
 //! | `robot` `max_wheel_speed_mm_s`, `wheel_base_mm` | the differential drive, when the firmware commands the motors |
+//! | `[robot.slip]` `spells_per_min`, `spell_s`, `speed_loss`, `skid_mm_per_turn` (optional table: no slip when absent) | wheel slip: spells of `spell_s` at random moments in which the robot moves and turns `speed_loss` (0 to 1) slower than commanded; and while turning, the centre slides `skid_mm_per_turn` on average per full turn, each turn in a direction and by an amount (0 to twice the average) of its own |
 //! | `sensors.tof` `fov_deg`, `max_range_mm`, `noise_mm`, `dropout` | 8 beams at the centres of 8 equal zones; zones with no return |
 //! | `sensors.flow` `um_per_count`, `scale_error`, `noise_counts`, `quality` | flow counts at 100 Hz; the firmware's calibration, the true scale error, noise per reading, surface quality |
+//! | `sensors.flow` `offset_mm` (optional, `[0, 0]` when absent) | where the sensor sits from the turning axis, `[forward, right]`: off the axis a turn on the spot shows as flow |
 //! | `sensors.gyro` `bias_dps`, `scale_error`, `noise_dps` | yaw rate at 200 Hz: residual bias, scale error, noise per sample |
+//! | `sensors.gyro` `bias_walk_dps_per_sqrt_s` (optional, 0 when absent) | the bias wanders from `bias_dps` as a random walk, spreading this much per square root of a second |
 //! | `sensors.camera` `width_px`, `focal_px`, `fov_deg`, `max_range_mm`, `max_incidence_deg`, `pixel_noise_px`, `distance_noise_mm` | tag detections; tags hidden by walls or seen too obliquely are not read |
 //! | `sensors.camera` `latency_ms` (optional, 0 when absent) | the tags are read from where the robot was this long before the tick, and the frame says how old they are |
 //! | `grid` `cell_mm`, `origin_x_mm`, `origin_y_mm`, `max_range_mm` | the core's grid (the smallest built-in size that holds the world: 46 x 46 or 206 x 206) and the mapper's range limit |
@@ -43,6 +46,7 @@ pub mod run;
 pub mod scenario;
 pub mod score;
 pub mod serve;
+pub mod slip;
 pub mod telemetry;
 pub mod truth;
 pub mod world;

@@ -4,6 +4,7 @@
 //! firmware all read their sensors from here.
 
 use crate::scenario::Scenario;
+use crate::slip::WheelSlip;
 use crate::world::{Vec2, World};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -45,6 +46,10 @@ struct Streams {
     flow: ChaCha8Rng,
     gyro: ChaCha8Rng,
     camera: ChaCha8Rng,
+    /// The wheels' slip.
+    slip: ChaCha8Rng,
+    /// The gyro bias's random walk.
+    gyro_bias: ChaCha8Rng,
 }
 
 impl Streams {
@@ -57,6 +62,8 @@ impl Streams {
             flow: stream(2),
             gyro: stream(3),
             camera: stream(4),
+            slip: stream(5),
+            gyro_bias: stream(6),
         }
     }
 }
@@ -84,6 +91,10 @@ pub struct Robot {
     gyro_sum_mdps: i64,
     gyro_samples: i64,
     last_gyro_mdps: i32,
+    /// How far the gyro's bias has wandered from `sensors.gyro.bias_dps`, degrees per second.
+    bias_walk_dps: f64,
+    /// The wheels, which may slip.
+    wheels: WheelSlip,
     /// The camera's latency in microseconds (the scenario's, rounded).
     camera_latency_us: u64,
     /// True poses at the last sub-steps, newest last (the newest is `truth`), enough to
@@ -112,6 +123,8 @@ impl Robot {
             gyro_sum_mdps: 0,
             gyro_samples: 0,
             last_gyro_mdps: 0,
+            bias_walk_dps: 0.0,
+            wheels: WheelSlip::new(scenario.robot.slip.clone()),
             camera_latency_us: camera_latency_us(scenario),
             past: VecDeque::from([start]),
         }
@@ -140,24 +153,45 @@ impl Robot {
 
     /// Moves the robot under `command` until simulated time `t_s`, in whole 5 ms sub-steps
     /// (a time between two sub-steps runs up to the earlier one; later calls catch up).
+    /// The wheels may slip, so the true motion may differ from the command; the gyro and
+    /// the flow sensor read the true motion.
     pub fn advance_to(&mut self, t_s: f64, command: Command) {
         let target = (t_s / SUBSTEP_S + 1e-6).floor().max(0.0) as u64;
         while (self.substeps as u64) < target {
-            let turn = command.turn_dps * SUBSTEP_S;
-            let dist = command.speed_mm_s * SUBSTEP_S;
+            let motion = self.wheels.step(command, SUBSTEP_S, &mut self.rng.slip);
+            let turn = motion.turn_dps * SUBSTEP_S;
+            let dist = motion.speed_mm_s * SUBSTEP_S;
             let mid = Vec2::heading(self.truth.heading_deg + turn / 2.0);
             self.truth.x_mm += mid.x * dist;
             self.truth.y_mm += mid.y * dist;
             self.truth.heading_deg += turn;
-            // The sensor sits at the centre of rotation: a turn on the spot moves no floor under it.
             self.flow_pending_mm.0 += dist;
+            let slide = motion.slide_mm;
+            if slide != Vec2::new(0.0, 0.0) {
+                self.truth.x_mm += slide.x;
+                self.truth.y_mm += slide.y;
+                // The slide in the robot's frame (right is the heading plus 90 degrees).
+                self.flow_pending_mm.0 += slide.x * mid.x + slide.y * mid.y;
+                self.flow_pending_mm.1 += slide.x * mid.y - slide.y * mid.x;
+            }
+            let [ahead_mm, right_mm] = self.scenario.sensors.flow.offset_mm;
+            if ahead_mm != 0.0 || right_mm != 0.0 {
+                let (ahead, right) = flow_offset_motion(ahead_mm, right_mm, turn);
+                self.flow_pending_mm.0 += ahead;
+                self.flow_pending_mm.1 += right;
+            }
             self.substeps += 1;
             self.time_s = self.substeps as f64 * SUBSTEP_S;
             self.remember_truth();
 
             let g = &self.scenario.sensors.gyro;
-            let rate = command.turn_dps * (1.0 + g.scale_error)
+            self.bias_walk_dps += noise(
+                &mut self.rng.gyro_bias,
+                g.bias_walk_dps_per_sqrt_s * SUBSTEP_S.sqrt(),
+            );
+            let rate = motion.turn_dps * (1.0 + g.scale_error)
                 + g.bias_dps
+                + self.bias_walk_dps
                 + noise(&mut self.rng.gyro, g.noise_dps);
             self.last_gyro_mdps = (rate * 1000.0).round() as i32;
             self.gyro_sum_mdps += self.last_gyro_mdps as i64;
@@ -229,6 +263,12 @@ impl Robot {
         let (f, r) = self.flow_sum;
         self.flow_sum = (0, 0);
         (f, r, self.scenario.sensors.flow.quality)
+    }
+
+    /// How far the gyro's bias has wandered from the scenario's `bias_dps`, degrees per
+    /// second.
+    pub fn gyro_bias_walk_dps(&self) -> f64 {
+        self.bias_walk_dps
     }
 
     /// The gyro's newest 200 Hz sample, millidegrees per second.
@@ -317,6 +357,18 @@ impl Robot {
     }
 }
 
+/// How a flow sensor `ahead_mm` ahead of the turning axis and `right_mm` to its right
+/// moves when the robot turns by `turn_deg` (clockwise) about that axis, in millimetres
+/// along the robot's (`forward`, `right`) at the middle of the turn.
+///
+/// The sensor swings along a chord of length `2 r sin(turn / 2)`, across the middle of
+/// the turn: with clockwise-positive headings, a sensor ahead moves right and one to the
+/// right moves back (velocity at the sensor = omega x r).
+pub fn flow_offset_motion(ahead_mm: f64, right_mm: f64, turn_deg: f64) -> (f64, f64) {
+    let chord = 2.0 * (turn_deg.to_radians() / 2.0).sin();
+    (-chord * right_mm, chord * ahead_mm)
+}
+
 /// A scenario's camera latency in whole microseconds (validated to `0..=1000` ms).
 fn camera_latency_us(scenario: &Scenario) -> u64 {
     (scenario.sensors.camera.latency_ms * 1000.0)
@@ -347,6 +399,234 @@ mod tests {
         speed_mm_s: 86.0,
         turn_dps: 31.5,
     };
+
+    /// A digest of everything the odometry sensors report over the first turn and drive
+    /// of the seed route (seed 1), with the truth they came from.
+    fn odometry_digest(scenario: &Scenario) -> u64 {
+        let mut robot = Robot::new(scenario, 1);
+        let mut digest: u64 = 0xcbf2_9ce4_8422_2325;
+        let mut mix = |v: u64| {
+            digest ^= v;
+            digest = digest.wrapping_mul(0x0000_0100_0000_01b3);
+        };
+        for tick in 0..200 {
+            let command = if tick < 115 {
+                Command {
+                    speed_mm_s: 0.0,
+                    turn_dps: 31.5,
+                }
+            } else {
+                Command {
+                    speed_mm_s: 86.0,
+                    turn_dps: 0.0,
+                }
+            };
+            robot.advance(0.1, command);
+            let (flow, gyro) = robot.take_odometry(0);
+            let flow = flow.unwrap_or_default();
+            mix(flow.forward_counts as u64);
+            mix(flow.right_counts as u64);
+            mix(gyro.map_or(0, |g| g.rate_mdps) as u64);
+            let t = robot.truth();
+            mix(t.x_mm.to_bits());
+            mix(t.y_mm.to_bits());
+            mix(t.heading_deg.to_bits());
+        }
+        digest
+    }
+
+    /// [`odometry_digest`] of the seed scenario as the robot read it before it had the
+    /// failings (flow off the axis, slip, a wandering bias).
+    const SEED_ODOMETRY_DIGEST: u64 = 0x3e08_efb9_c006_ecad;
+
+    #[test]
+    fn without_the_failings_the_sensors_read_as_they_always_have() {
+        let plain = scenario(0.0);
+        assert_eq!(plain.robot.slip, None);
+        assert_eq!(plain.sensors.flow.offset_mm, [0.0, 0.0]);
+        assert_eq!(plain.sensors.gyro.bias_walk_dps_per_sqrt_s, 0.0);
+        assert_eq!(odometry_digest(&plain), SEED_ODOMETRY_DIGEST);
+        // Each failing given at 0 is no failing.
+        let mut zero = plain.clone();
+        zero.robot.slip = Some(crate::scenario::Slip {
+            spells_per_min: 0.0,
+            spell_s: 1.0,
+            speed_loss: 0.5,
+            skid_mm_per_turn: 0.0,
+        });
+        assert_eq!(odometry_digest(&zero), SEED_ODOMETRY_DIGEST);
+        // And each one at a level changes what the sensors read.
+        let mut offset = plain.clone();
+        offset.sensors.flow.offset_mm = [20.0, 0.0];
+        let mut walk = plain.clone();
+        walk.sensors.gyro.bias_walk_dps_per_sqrt_s = 0.01;
+        let mut skid = zero.clone();
+        if let Some(s) = skid.robot.slip.as_mut() {
+            s.skid_mm_per_turn = 5.0;
+        }
+        for changed in [offset, walk, skid] {
+            assert_ne!(odometry_digest(&changed), SEED_ODOMETRY_DIGEST);
+        }
+    }
+
+    /// The seed scenario with exact sensors: no scale errors, no noise, no bias.
+    fn exact() -> Scenario {
+        let mut s = scenario(0.0);
+        s.sensors.flow.scale_error = 0.0;
+        s.sensors.flow.noise_counts = 0.0;
+        s.sensors.gyro.scale_error = 0.0;
+        s.sensors.gyro.noise_dps = 0.0;
+        s.sensors.gyro.bias_dps = 0.0;
+        s
+    }
+
+    /// Flow in millimetres (`forward`, `right`) and the gyro's mean rate over `seconds`
+    /// under `command`.
+    fn odometry_over(robot: &mut Robot, seconds: f64, command: Command) -> (f64, f64, f64) {
+        let ticks = (seconds / 0.1).round() as usize;
+        let (mut fwd, mut right, mut rate) = (0.0, 0.0, 0.0);
+        for _ in 0..ticks {
+            robot.advance(0.1, command);
+            let (flow, gyro) = robot.take_odometry(0);
+            let flow = flow.unwrap_or_default();
+            fwd += f64::from(flow.forward_counts) * 0.1;
+            right += f64::from(flow.right_counts) * 0.1;
+            rate += gyro.map_or(0.0, |g| f64::from(g.rate_mdps) / 1000.0) / ticks as f64;
+        }
+        (fwd, right, rate)
+    }
+
+    const SPIN: Command = Command {
+        speed_mm_s: 0.0,
+        turn_dps: 31.5,
+    };
+
+    #[test]
+    fn a_flow_sensor_off_the_axis_sees_a_spin_as_flow() {
+        // On the axis, a spin moves no floor under the sensor.
+        let (f, r, _) = odometry_over(&mut Robot::new(&exact(), 1), 1.0, SPIN);
+        assert_eq!((f, r), (0.0, 0.0));
+        // 20 mm ahead, spinning clockwise at 31.5 deg/s: the sensor swings right at
+        // 2 pi 20 31.5 / 360 mm/s.
+        let sideways_mm_s = 2.0 * std::f64::consts::PI * 20.0 * 31.5 / 360.0;
+        let mut ahead = exact();
+        ahead.sensors.flow.offset_mm = [20.0, 0.0];
+        let (f, r, _) = odometry_over(&mut Robot::new(&ahead, 1), 1.0, SPIN);
+        assert!(f.abs() < 0.1, "{f}");
+        assert!(
+            (r - sideways_mm_s).abs() < 0.1,
+            "{r} against {sideways_mm_s}"
+        );
+        let anticlockwise = Command {
+            turn_dps: -31.5,
+            ..SPIN
+        };
+        let (_, r, _) = odometry_over(&mut Robot::new(&ahead, 1), 1.0, anticlockwise);
+        assert!((r + sideways_mm_s).abs() < 0.1, "{r}");
+        // 20 mm to the right, spinning clockwise: the sensor swings backwards.
+        let mut right = exact();
+        right.sensors.flow.offset_mm = [0.0, 20.0];
+        let (f, r, _) = odometry_over(&mut Robot::new(&right, 1), 1.0, SPIN);
+        assert!((f + sideways_mm_s).abs() < 0.1, "{f}");
+        assert!(r.abs() < 0.1, "{r}");
+        // A whole turn brings the sensor back where it started.
+        let (f, r, _) = odometry_over(&mut Robot::new(&ahead, 1), 360.0 / 31.5, SPIN);
+        assert!(f.abs() < 0.2 && r.abs() > 100.0, "{f} {r}");
+        // Driving straight, the offset adds nothing.
+        let drive = Command {
+            speed_mm_s: 86.0,
+            turn_dps: 0.0,
+        };
+        let (f, r, _) = odometry_over(&mut Robot::new(&ahead, 1), 1.0, drive);
+        assert!((f - 86.0).abs() < 0.1 && r == 0.0, "{f} {r}");
+    }
+
+    #[test]
+    fn flow_offset_motion_is_omega_cross_r() {
+        // A small turn: the chord is the arc, omega x r.
+        let turn_deg: f64 = 0.01;
+        let w = turn_deg.to_radians();
+        let (f, r) = flow_offset_motion(30.0, -10.0, turn_deg);
+        assert!((f - w * 10.0).abs() < 1e-9 && (r - w * 30.0).abs() < 1e-9);
+        assert_eq!(flow_offset_motion(0.0, 0.0, 5.0), (-0.0, 0.0));
+        // Half a turn: the sensor ends on the far side of the axis.
+        let (f, r) = flow_offset_motion(20.0, 0.0, 180.0);
+        assert!(f.abs() < 1e-12 && (r - 40.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_gyro_bias_wanders_as_a_random_walk() {
+        let mut still = exact();
+        still.sensors.gyro.bias_dps = 0.05;
+        let standing = Command::default();
+        // Without a walk the bias stays put, and the gyro reads it exactly.
+        let mut robot = Robot::new(&still, 1);
+        let (_, _, rate) = odometry_over(&mut robot, 10.0, standing);
+        assert_eq!(robot.gyro_bias_walk_dps(), 0.0);
+        assert!((rate - 0.05).abs() < 1e-9, "{rate}");
+        // With one, the spread after 100 s is the walk's figure times 10.
+        still.sensors.gyro.bias_walk_dps_per_sqrt_s = 0.004;
+        let walks: Vec<f64> = (1..=40)
+            .map(|seed| {
+                let mut robot = Robot::new(&still, seed);
+                robot.advance(100.0, standing);
+                let read = f64::from(robot.gyro_sample_mdps()) / 1000.0;
+                let walk = robot.gyro_bias_walk_dps();
+                assert!((read - 0.05 - walk).abs() <= 0.0005, "{read} {walk}");
+                walk
+            })
+            .collect();
+        let spread = (walks.iter().map(|w| w * w).sum::<f64>() / walks.len() as f64).sqrt();
+        assert!((0.028..0.052).contains(&spread), "{spread}");
+        // The walk draws from its own stream: the gyro's noise is the same draw for draw.
+        let (mut noisy, mut noisy_walk) = (scenario(0.0), scenario(0.0));
+        noisy_walk.sensors.gyro.bias_walk_dps_per_sqrt_s = 0.004;
+        noisy.sensors.gyro.bias_dps = 0.0;
+        noisy_walk.sensors.gyro.bias_dps = 0.0;
+        let (mut a, mut b) = (Robot::new(&noisy, 3), Robot::new(&noisy_walk, 3));
+        for _ in 0..50 {
+            a.advance(0.005, standing);
+            b.advance(0.005, standing);
+            let expected = f64::from(a.gyro_sample_mdps()) + b.gyro_bias_walk_dps() * 1000.0;
+            assert!((f64::from(b.gyro_sample_mdps()) - expected).abs() <= 1.0);
+        }
+    }
+
+    #[test]
+    fn slip_moves_the_truth_and_the_sensors_read_the_truth() {
+        let mut slippy = exact();
+        slippy.robot.slip = Some(crate::scenario::Slip {
+            spells_per_min: 20.0,
+            spell_s: 1.0,
+            speed_loss: 0.5,
+            skid_mm_per_turn: 20.0,
+        });
+        let mut robot = Robot::new(&slippy, 2);
+        let start = robot.truth();
+        let seconds = 20.0;
+        // The flow turned into the world by the true heading at each tick's middle.
+        let (mut seen_x, mut seen_y, mut gyro_deg) = (0.0, 0.0, 0.0);
+        for _ in 0..(seconds / 0.1) as usize {
+            let before = robot.truth().heading_deg;
+            let (f, r, rate) = odometry_over(&mut robot, 0.1, SPIN);
+            let h = ((before + robot.truth().heading_deg) / 2.0).to_radians();
+            seen_x += f * h.sin() + r * h.cos();
+            seen_y += f * h.cos() - r * h.sin();
+            gyro_deg += rate * 0.1;
+        }
+        let end = robot.truth();
+        let turned = end.heading_deg - start.heading_deg;
+        // Spells slowed the turn, and the gyro read the true rate.
+        assert!(turned < 31.5 * seconds - 1.0, "{turned}");
+        assert!((gyro_deg - turned).abs() < 0.01, "{gyro_deg} {turned}");
+        // The centre slid, and the sensor (on the axis) saw the floor move as it did.
+        let (dx, dy) = (end.x_mm - start.x_mm, end.y_mm - start.y_mm);
+        assert!(dx.hypot(dy) > 1.0, "{dx} {dy}");
+        assert!(
+            (seen_x - dx).hypot(seen_y - dy) < 0.5,
+            "{seen_x} {seen_y} {dx} {dy}"
+        );
+    }
 
     #[test]
     fn truth_ago_is_the_truth_back_then() {

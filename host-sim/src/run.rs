@@ -121,6 +121,8 @@ pub struct Figures {
     pub max_heading_error_after_first_fix_deg: f64,
     /// Largest position error over the whole run, centimetres.
     pub max_error_cm: f64,
+    /// Largest heading error over the whole run, degrees (absolute, wrapped to 180).
+    pub max_heading_error_deg: f64,
     /// When the run reached [`MAX_RUN_S`] before its route ended, the time it was cut
     /// at, seconds; absent (not even `null`) when the route ran to its end.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -416,6 +418,7 @@ fn run_sized<const W: usize, const H: usize>(
         final_heading_error_deg: errors.final_heading_error_deg,
         max_heading_error_after_first_fix_deg: errors.max_heading_error_after_first_fix_deg,
         max_error_cm: errors.max_error_cm,
+        max_heading_error_deg: errors.max_heading_error_deg,
         route_cut_at_s,
         estimator: estimator_figures(&ticks, Some(true_calibration)),
     };

@@ -11,6 +11,17 @@ use serde::{Deserialize, Deserializer};
 use std::fmt;
 use std::path::Path;
 
+/// The scenario files shipped in `host-sim/scenarios/`, by file name: what a test that
+/// holds "every shipped scenario" to something goes through (a test checks that the list
+/// and the directory agree).
+pub const SHIPPED: [&str; 5] = [
+    "seed-mat.toml",
+    "seed-mat-rough.toml",
+    "one-tag.toml",
+    "two-wall-room.toml",
+    "room-10m.toml",
+];
+
 /// A wall segment, `[[x0, y0], [x1, y1]]` in millimetres.
 pub type Segment = [[f64; 2]; 2];
 
@@ -44,7 +55,9 @@ pub struct World {
     /// Every wall and box edge as a segment in millimetres.
     #[serde(deserialize_with = "segments")]
     pub walls: Vec<Segment>,
-    /// AprilTags on cards.
+    /// AprilTags on cards. Optional: a world without tags has none (the core's tag map
+    /// is then empty, and only odometry places the robot).
+    #[serde(default)]
     pub tags: Vec<Tag>,
     /// An occupied cell whose centre is within this of a wall is "in place", millimetres.
     pub wall_tolerance_mm: f64,
@@ -86,6 +99,33 @@ pub struct Robot {
     pub max_wheel_speed_mm_s: f64,
     /// Distance between the wheels, millimetres.
     pub wheel_base_mm: f64,
+    /// How the wheels slip on the floor. Optional: absent, the robot moves exactly as
+    /// commanded.
+    #[serde(default)]
+    pub slip: Option<Slip>,
+}
+
+/// Wheel slip: the robot's true motion differs from what its motors are asked for.
+///
+/// Two effects, each seeded from its own random stream. Spells of lost speed: at random
+/// moments (on average `spells_per_min` a minute) the wheels lose grip for `spell_s`
+/// seconds, and the robot moves and turns `speed_loss` slower than commanded. Skid in
+/// turns: while it turns, the robot's centre slides over the floor, on average
+/// `skid_mm_per_turn` millimetres per full turn, in a direction drawn afresh at the start
+/// of each turn, by an amount drawn evenly between none and twice the average. The flow
+/// sensor sees the true motion, so slip reaches odometry through the slide (read in a
+/// turning frame) and through the flow sensor's offset from the turning axis.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Slip {
+    /// How often a spell of lost speed starts, on average, per minute (0: never).
+    pub spells_per_min: f64,
+    /// How long a spell lasts, seconds.
+    pub spell_s: f64,
+    /// Share of the commanded speed and turn rate lost during a spell, 0 to 1.
+    pub speed_loss: f64,
+    /// Average slide of the robot's centre per full turn, millimetres (0: none).
+    pub skid_mm_per_turn: f64,
 }
 
 /// All sensor models.
@@ -116,7 +156,7 @@ pub struct Tof {
     pub dropout: f64,
 }
 
-/// Optical flow under the robot's centre.
+/// Optical flow, looking at the floor under the robot.
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Flow {
@@ -128,6 +168,11 @@ pub struct Flow {
     pub noise_counts: f64,
     /// Surface quality reported (0 to 255); below the core's gate the reading is dropped.
     pub quality: u8,
+    /// Where the sensor sits from the robot's turning axis, `[forward, right]` in
+    /// millimetres. Optional: `[0, 0]`, on the axis. Off the axis, the sensor sees the floor
+    /// move under its own position, so a turn on the spot shows as flow.
+    #[serde(default, deserialize_with = "pair")]
+    pub offset_mm: [f64; 2],
 }
 
 /// Gyro, yaw axis.
@@ -140,6 +185,10 @@ pub struct Gyro {
     pub scale_error: f64,
     /// Standard deviation of noise per 5 ms sample, degrees per second.
     pub noise_dps: f64,
+    /// How fast the bias wanders: a random walk whose spread grows by this much per
+    /// square root of a second, degrees per second. Optional: 0, a bias that stays put.
+    #[serde(default)]
+    pub bias_walk_dps_per_sqrt_s: f64,
 }
 
 /// The tag camera co-processor.
@@ -267,6 +316,17 @@ fn segments<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<Segment>, D::Error> {
         .collect()
 }
 
+/// `sensors.flow.offset_mm`, refusing anything but exactly two numbers (see [`segments`]).
+fn pair<'de, D: Deserializer<'de>>(d: D) -> Result<[f64; 2], D::Error> {
+    match Vec::<f64>::deserialize(d)?.as_slice() {
+        [a, b] => Ok([*a, *b]),
+        other => Err(D::Error::custom(format!(
+            "sensors.flow.offset_mm is [forward, right], got {} numbers",
+            other.len()
+        ))),
+    }
+}
+
 /// Accumulates the first invalid field.
 struct Check(Result<(), ScenarioError>);
 
@@ -306,6 +366,14 @@ impl Check {
 
 /// Largest coordinate or length a scenario may use, millimetres (a 100 m hall).
 const MAX_MM: f64 = 100_000.0;
+
+/// Furthest the flow sensor may sit from the turning axis, millimetres: further is off a
+/// robot of BugBot's size altogether.
+const MAX_FLOW_OFFSET_MM: f64 = 500.0;
+
+/// Largest average slide per full turn, millimetres: a metre a turn is no longer a
+/// wheeled robot turning.
+const MAX_SKID_MM_PER_TURN: f64 = 1000.0;
 
 /// Longest scenario name, characters.
 const MAX_NAME_LEN: usize = 64;
@@ -407,6 +475,17 @@ impl Scenario {
             5000.0,
         );
         c.positive("robot.wheel_base_mm", self.robot.wheel_base_mm, 2000.0);
+        if let Some(slip) = &self.robot.slip {
+            c.range("robot.slip.spells_per_min", slip.spells_per_min, 0.0, 600.0);
+            c.positive("robot.slip.spell_s", slip.spell_s, 60.0);
+            c.range("robot.slip.speed_loss", slip.speed_loss, 0.0, 1.0);
+            c.range(
+                "robot.slip.skid_mm_per_turn",
+                slip.skid_mm_per_turn,
+                0.0,
+                MAX_SKID_MM_PER_TURN,
+            );
+        }
         let s = &self.sensors;
         c.positive("sensors.tof.fov_deg", s.tof.fov_deg, 180.0);
         c.positive("sensors.tof.max_range_mm", s.tof.max_range_mm, 65_000.0);
@@ -420,9 +499,27 @@ impl Scenario {
         );
         c.range("sensors.flow.scale_error", s.flow.scale_error, -0.5, 0.5);
         c.range("sensors.flow.noise_counts", s.flow.noise_counts, 0.0, 100.0);
+        c.range(
+            "sensors.flow.offset_mm[0]",
+            s.flow.offset_mm[0],
+            -MAX_FLOW_OFFSET_MM,
+            MAX_FLOW_OFFSET_MM,
+        );
+        c.range(
+            "sensors.flow.offset_mm[1]",
+            s.flow.offset_mm[1],
+            -MAX_FLOW_OFFSET_MM,
+            MAX_FLOW_OFFSET_MM,
+        );
         c.range("sensors.gyro.bias_dps", s.gyro.bias_dps, -100.0, 100.0);
         c.range("sensors.gyro.scale_error", s.gyro.scale_error, -0.5, 0.5);
         c.range("sensors.gyro.noise_dps", s.gyro.noise_dps, 0.0, 100.0);
+        c.range(
+            "sensors.gyro.bias_walk_dps_per_sqrt_s",
+            s.gyro.bias_walk_dps_per_sqrt_s,
+            0.0,
+            10.0,
+        );
         c.at_least(
             "sensors.camera.width_px",
             s.camera.width_px,

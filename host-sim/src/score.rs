@@ -26,6 +26,8 @@ pub struct PoseErrors {
     pub max_heading_error_after_first_fix_deg: f64,
     /// Largest position error over the whole run, centimetres.
     pub max_error_cm: f64,
+    /// Largest heading error over the whole run, degrees (absolute, wrapped to 180).
+    pub max_heading_error_deg: f64,
 }
 
 /// The pose figures of `ticks`, in time order.
@@ -42,6 +44,10 @@ pub fn pose_errors(ticks: &[TickRecord]) -> PoseErrors {
         final_heading_error_deg: last.map_or(0.0, |t| t.heading_error_deg.abs()),
         max_heading_error_after_first_fix_deg: after(|t| t.heading_error_deg.abs()),
         max_error_cm: ticks.iter().map(|t| t.error_cm).fold(0.0, f64::max),
+        max_heading_error_deg: ticks
+            .iter()
+            .map(|t| t.heading_error_deg.abs())
+            .fold(0.0, f64::max),
     }
 }
 
@@ -136,6 +142,7 @@ mod tests {
         ];
         let e = pose_errors(&ticks);
         assert!((e.max_error_cm - 5.0).abs() < 1e-9);
+        assert!((e.max_heading_error_deg - 9.0).abs() < 1e-9);
         assert!((e.max_error_after_first_fix_cm - 1.5).abs() < 1e-9);
         assert!((e.max_heading_error_after_first_fix_deg - 3.0).abs() < 1e-9);
         assert!((e.final_error_cm - 0.5).abs() < 1e-9);
@@ -150,6 +157,22 @@ mod tests {
         assert!((e.final_heading_error_deg - 4.0).abs() < 1e-9);
         assert_eq!(e.max_error_after_first_fix_cm, 0.0);
         assert_eq!(pose_errors(&[]).max_error_cm, 0.0);
+        assert_eq!(pose_errors(&[]).max_heading_error_deg, 0.0);
+        // A tick without truth carries no heading error, whatever its estimate.
+        let unknown = tick(f64::NAN, 170.0, false);
+        assert_eq!(pose_errors(&[unknown]).max_heading_error_deg, 0.0);
+    }
+
+    #[test]
+    fn the_largest_heading_error_is_wrapped() {
+        // Estimated 179 deg against a true -179 deg (181 unwrapped) is 2 deg off, not 358.
+        let mut across = TickRecord::estimated(0.0, (0.0, 0.0), 179.0, 0.0, false);
+        across.set_truth((0.0, 0.0), 181.0);
+        // And an estimate 3 full turns behind the unwrapped truth is not off at all.
+        let mut turns = TickRecord::estimated(0.1, (0.0, 0.0), 10.0, 0.0, false);
+        turns.set_truth((0.0, 0.0), 1090.0);
+        let e = pose_errors(&[across, turns]);
+        assert!((e.max_heading_error_deg - 2.0).abs() < 1e-9, "{e:?}");
     }
 
     #[test]

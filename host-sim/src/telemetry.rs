@@ -551,12 +551,13 @@ pub struct TruthFigures {
 }
 
 /// The keys of [`PoseErrors`], for [`errors_or_nulls`].
-const POSE_ERROR_KEYS: [&str; 5] = [
+const POSE_ERROR_KEYS: [&str; 6] = [
     "final_error_cm",
     "max_error_after_first_fix_cm",
     "final_heading_error_deg",
     "max_heading_error_after_first_fix_deg",
     "max_error_cm",
+    "max_heading_error_deg",
 ];
 
 /// The errors' keys with their values, or each with `null`: a reader finds the key

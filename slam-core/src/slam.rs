@@ -347,7 +347,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
     /// Dead reckoning with the learned calibration, and the covariance carried along.
     fn predict_filtered(&mut self, frame: &SensorFrame) {
         let odometry = self.estimator.odometry(&self.config.odometry);
-        let gyro = frame.gyro.map(|g| self.estimator.unbias(g));
+        let gyro = frame.gyro.map(|g| self.estimator.correct_gyro(g));
         let motion = odometry::motion(frame.flow, gyro, frame.dt_us, &odometry);
         let before = self.pose;
         self.pose = odometry::apply(&before, &motion);
@@ -390,6 +390,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
                 Err(_) => {}
             }
         }
+        self.estimator.settle();
         match outcome {
             FixOutcome::Taken => self.counters.fixes_taken += 1,
             FixOutcome::Rejected(FixRejection::Gate) => self.counters.fixes_rejected_gate += 1,

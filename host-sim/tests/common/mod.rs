@@ -23,7 +23,7 @@ pub fn host_sim(args: &[&str]) -> Output {
 
 /// The figures `host-sim run --json` reports that `host-sim view --truth --scenario --json`
 /// reports too, under the same names (`run` adds `ticks` and the rest).
-pub const SCORED_FIGURES: [&str; 11] = [
+pub const SCORED_FIGURES: [&str; 12] = [
     "known_pct",
     "free",
     "occupied",
@@ -35,6 +35,7 @@ pub const SCORED_FIGURES: [&str; 11] = [
     "final_heading_error_deg",
     "max_heading_error_after_first_fix_deg",
     "max_error_cm",
+    "max_heading_error_deg",
 ];
 
 /// A `Hello` for a `width` x `height` grid of 5 cm cells at the origin, with the seed's

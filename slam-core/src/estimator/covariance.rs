@@ -1,214 +1,249 @@
-//! The filter's covariance: a symmetric 6 x 6 matrix of integers, each state in its own
-//! unit so that every entry of a working filter sits well inside 40 bits.
+//! The filter's covariance: a symmetric 6 x 6 matrix of 32-bit integers, each state in its
+//! own unit (see [`super::units`]) so that every entry of a working filter fits, and the
+//! products the filter forms are the M0+'s 32 x 32 multiplies.
 //!
 //! Jacobians are Q16 numbers. The units are chosen so that each partial derivative the
 //! filter needs is a plain length or angle in those units: the heading unit is 2^-16 rad,
 //! so the derivative of x by the heading, `dy` in position units per radian, is `dy` in
 //! Q16 position units per heading unit.
 
+// Symmetric updates index rows and columns together: plain index loops read best.
+#![allow(clippy::needless_range_loop)]
+
+use super::fixed::{mul_shift, wide_mul, wide_mul_unsigned, Reciprocal};
 use super::State;
+use crate::pose::{isqrt, mul_q16_32};
 
 /// Number of states: x, y, heading, gyro scale, gyro bias, flow scale.
 pub const N: usize = 6;
 
 /// One nonzero entry of a sparse Q16 matrix: row, column, value.
-pub type Entry = (State, State, i64);
+pub type Entry = (State, State, i32);
 
 /// Fractional bits of a scalar update's gain.
 pub const GAIN_SHIFT: u32 = 16;
 
-/// `a * b >> shift`, rounded, in 64 bits when the product fits (always, in a filter that
-/// has not diverged) and in 128 bits when it does not; saturating.
-pub fn mul_shift(a: i64, b: i64, shift: u32) -> i64 {
-    match a.checked_mul(b) {
-        Some(p) => {
-            let half = (1i64 << shift) >> 1;
-            match p.checked_add(half) {
-                Some(q) => q >> shift,
-                None => p >> shift,
-            }
-        }
-        None => wide_mul_shift(a, b, shift),
-    }
-}
-
-#[cold]
-fn wide_mul_shift(a: i64, b: i64, shift: u32) -> i64 {
-    let p = (i128::from(a) * i128::from(b) + ((1i128 << shift) >> 1)) >> shift;
-    p.clamp(i64::MIN as i128, i64::MAX as i128) as i64
-}
-
 /// A symmetric positive definite matrix in integers.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub struct Covariance {
-    m: [[i64; N]; N],
+    m: [[i32; N]; N],
+}
+
+/// The vector in 32 bits, if every entry fits.
+fn narrow(v: &[i64; N]) -> Option<[i32; N]> {
+    let mut out = [0i32; N];
+    for (o, x) in out.iter_mut().zip(v) {
+        *o = i32::try_from(*x).ok()?;
+    }
+    Some(out)
+}
+
+/// `x` clamped into an `i32`, short of `i32::MIN` (whose negation would not fit).
+fn clamp32(x: i64) -> i32 {
+    x.clamp(-(i32::MAX as i64), i32::MAX as i64) as i32
 }
 
 impl Covariance {
-    /// A diagonal covariance.
+    /// A diagonal covariance (variances clamped to 32 bits).
     pub fn diagonal(variances: [i64; N]) -> Covariance {
         let mut m = [[0; N]; N];
         for (i, v) in variances.iter().enumerate() {
-            m[i][i] = *v;
+            m[i][i] = clamp32(*v);
         }
         Covariance { m }
     }
 
     /// Entry `(i, j)`.
     pub fn get(&self, i: State, j: State) -> i64 {
-        self.m[i as usize][j as usize]
+        i64::from(self.m[i as usize][j as usize])
     }
 
     /// The whole matrix, rows in state order.
-    pub fn rows(&self) -> &[[i64; N]; N] {
+    pub fn rows(&self) -> &[[i32; N]; N] {
         &self.m
     }
 
-    /// `F P F^T` for `F = I + D`, `D` given by its nonzero Q16 entries: the rows of `D`
-    /// are added into `P` (`(I + D) P`), then its columns (`... (I + D)^T`).
-    pub fn propagate(&mut self, d: &[Entry]) {
-        // (I + D) P: row i gains v times row k of P as it was.
-        let before = self.m;
-        for &(i, k, v) in d {
-            let (i, k) = (i as usize, k as usize);
-            for j in 0..N {
-                self.m[i][j] = self.m[i][j].saturating_add(mul_shift(before[k][j], v, 16));
-            }
-        }
-        // ... (I + D)^T: column j gains v times column k.
-        let mid = self.m;
-        for &(j, k, v) in d {
-            let (j, k) = (j as usize, k as usize);
-            for i in 0..N {
-                self.m[i][j] = self.m[i][j].saturating_add(mul_shift(mid[i][k], v, 16));
-            }
-        }
-        self.symmetrise();
-    }
-
-    /// Adds process noise to the diagonal.
-    pub fn add_diagonal(&mut self, q: [i64; N]) {
-        for (i, q) in q.iter().enumerate() {
-            self.m[i][i] = self.m[i][i].saturating_add(*q);
-        }
-    }
-
-    /// `P h^T` for a sparse Q16 row `h`.
-    pub fn times_row(&self, h: &[(State, i64)]) -> [i64; N] {
-        let mut a = [0i64; N];
-        for (i, out) in a.iter_mut().enumerate() {
-            let mut sum = 0i64;
-            for &(j, v) in h {
-                sum = sum.saturating_add(mul_shift(self.m[i][j as usize], v, 16));
-            }
-            *out = sum;
-        }
-        a
-    }
-
-    /// The scalar update `P - a a^T / s` with `a = P h^T` and `s = h a + r`, given `a` and
-    /// `s`. Returns the gain `a / s` (Q[`GAIN_SHIFT`]); `None`, and no change, if `s` is
-    /// not positive.
-    pub fn update(&mut self, a: &[i64; N], s: i64) -> Option<[i64; N]> {
-        if s <= 0 {
-            return None;
-        }
-        let mut k = [0i64; N];
-        for (k, a) in k.iter_mut().zip(a) {
-            *k = gain(*a, s);
+    /// `F P F^T + Q` for `F = I + D`, `D` given by its nonzero Q16 entries and `Q` by its
+    /// diagonal, as `P + D P + (D P)^T + D P D^T + Q`: `D` has only pose rows, so `D P`
+    /// has only those rows and `D P D^T` only their block. Formed in 64 bits; a variance
+    /// past its ceiling then scales its row and column down (a congruence, which keeps
+    /// the matrix positive definite) before the matrix goes back to 32 bits.
+    #[inline(never)]
+    pub fn propagate(&mut self, d: &[Entry], noise: &[i64; N], ceiling: &[i32; N]) {
+        // A tick's Jacobian entries are a tick's displacement and turn: within 1.0 in
+        // Q16 at any speed the robot drives, two 32-bit multiplies each.
+        let next = if d.iter().all(|&(_, _, v)| v.unsigned_abs() <= 1 << 16) {
+            self.propagated(d, |p, v| i64::from(mul_q16_32(clamp32(p), v)))
+        } else {
+            self.propagated(d, |p, v| mul_shift(p, i64::from(v), 16))
+        };
+        let mut scale = [0i64; N];
+        let mut any = false;
+        for i in 0..N {
+            let v = next[i][i].saturating_add(noise[i]).max(1);
+            scale[i] = if v > i64::from(ceiling[i]) {
+                any = true;
+                // sqrt(ceiling / v) in Q16.
+                let ratio = (u128::from(ceiling[i].max(0) as u32) << 32) / v as u128;
+                isqrt(ratio.min(u64::MAX as u128) as u64) as i64
+            } else {
+                1 << 16
+            };
         }
         for i in 0..N {
             for j in i..N {
-                let v = self.m[i][j].saturating_sub(mul_shift(k[i], a[j], GAIN_SHIFT));
+                let mut v = next[i][j];
+                if i == j {
+                    v = v.saturating_add(noise[i]);
+                }
+                if any {
+                    v = mul_shift(mul_shift(v, scale[i], 16), scale[j], 16);
+                }
+                let v = if i == j {
+                    v.min(i64::from(ceiling[i]))
+                } else {
+                    v
+                };
+                let v = clamp32(v);
                 self.m[i][j] = v;
                 self.m[j][i] = v;
             }
         }
-        Some(k)
     }
 
-    /// Keeps the matrix a covariance through rounding: each variance between its floor and
-    /// its ceiling (a variance past its ceiling scales its row and column down, a
-    /// congruence that keeps the matrix positive definite), each correlation below one.
-    pub fn bound(&mut self, floor: &[i64; N], ceiling: &[i64; N]) {
+    /// The upper triangle of `P + D P + (D P)^T + D P D^T`, in 64 bits; `mul(p, v)` is
+    /// `p v / 2^16`.
+    fn propagated(&self, d: &[Entry], mul: impl Fn(i64, i32) -> i64) -> [[i64; N]; N] {
+        let mut dp = [[0i64; N]; N];
+        for &(i, k, v) in d {
+            let (i, k) = (i as usize, k as usize);
+            for (out, p) in dp[i].iter_mut().zip(self.m[k]) {
+                *out += mul(i64::from(p), v);
+            }
+        }
+        let mut next = [[0i64; N]; N];
         for i in 0..N {
-            if self.m[i][i] > ceiling[i] {
-                // Scale row and column i by c = sqrt(ceiling / P_ii), in Q16.
-                let c = (isqrt_u64(((ceiling[i] as u64) << 32) / (self.m[i][i] as u64))) as i64;
-                for j in 0..N {
-                    if j != i {
-                        let v = mul_shift(self.m[i][j], c, 16);
+            for j in i..N {
+                let mut v = i64::from(self.m[i][j]) + dp[i][j] + dp[j][i];
+                for &(r, k, q) in d {
+                    if r as usize == j {
+                        v += mul(dp[i][k as usize], q);
+                    }
+                }
+                next[i][j] = v;
+            }
+        }
+        next
+    }
+
+    /// `P h^T` for a sparse Q16 row `h` whose entries are within 1.0 (a direction's sine
+    /// and cosine): two 32-bit multiplies a product.
+    #[inline(never)]
+    pub fn times_unit_row(&self, h: &[(State, i32)]) -> [i64; N] {
+        let mut a = [0i64; N];
+        for (out, row) in a.iter_mut().zip(&self.m) {
+            *out = h.iter().fold(0i64, |sum, &(j, v)| {
+                sum + i64::from(mul_q16_32(row[j as usize], v.clamp(-(1 << 16), 1 << 16)))
+            });
+        }
+        a
+    }
+
+    /// Column `j`.
+    pub fn column(&self, j: State) -> [i64; N] {
+        let mut c = [0i64; N];
+        for (c, row) in c.iter_mut().zip(&self.m) {
+            *c = i64::from(row[j as usize]);
+        }
+        c
+    }
+
+    /// The scalar update `P - a a^T / s` with `a = P h^T` and `s = h a + r`, given `a` and
+    /// `1 / s`. Returns the gain `a / s` (Q[`GAIN_SHIFT`]).
+    #[inline(never)]
+    pub fn update(&mut self, a: &[i64; N], s: &Reciprocal) -> [i64; N] {
+        let mut k = [0i64; N];
+        for (k, a) in k.iter_mut().zip(a) {
+            *k = s.times(*a, GAIN_SHIFT);
+        }
+        match (narrow(&k), narrow(a)) {
+            // A working filter's gains and `P h` fit 32 bits: 32 x 32 multiplies.
+            (Some(k32), Some(a32)) => {
+                for i in 0..N {
+                    for j in i..N {
+                        let d = (wide_mul(k32[i], a32[j]) + (1 << (GAIN_SHIFT - 1))) >> GAIN_SHIFT;
+                        let v = clamp32(i64::from(self.m[i][j]) - d);
                         self.m[i][j] = v;
                         self.m[j][i] = v;
                     }
                 }
-                self.m[i][i] = ceiling[i];
+            }
+            _ => self.update_wide(&k, a),
+        }
+        k
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn update_wide(&mut self, k: &[i64; N], a: &[i64; N]) {
+        for i in 0..N {
+            for j in i..N {
+                let v = clamp32(i64::from(self.m[i][j]) - mul_shift(k[i], a[j], GAIN_SHIFT));
+                self.m[i][j] = v;
+                self.m[j][i] = v;
+            }
+        }
+    }
+
+    /// Keeps each variance between its floor and its ceiling: one past its ceiling scales
+    /// its row and column down, a congruence that keeps the matrix positive definite.
+    pub fn bound_variances(&mut self, floor: &[i32; N], ceiling: &[i32; N]) {
+        for i in 0..N {
+            if self.m[i][i] > ceiling[i] {
+                self.scale_down(i, ceiling[i]);
             }
             if self.m[i][i] < floor[i] {
                 self.m[i][i] = floor[i];
             }
         }
+    }
+
+    /// [`Covariance::bound_variances`], and each correlation kept below one by about
+    /// 2^-10, against the rounding of many updates. A pair too closely correlated has both
+    /// its variances raised by 2^-9 rather than its covariance cut: adding to the diagonal
+    /// keeps a positive definite matrix so (and makes a nearly indefinite one definite),
+    /// where cutting one entry of a nearly singular matrix can break it.
+    pub fn bound(&mut self, floor: &[i32; N], ceiling: &[i32; N]) {
         for i in 0..N {
             for j in i + 1..N {
-                // |P_ij| < sqrt(P_ii P_jj), kept a little under: 0.999.
-                let limit = (isqrt_u64((self.m[i][i] as u64).saturating_mul(self.m[j][j] as u64))
-                    as i64)
-                    .saturating_mul(1023)
-                    >> 10;
-                let v = self.m[i][j].clamp(-limit, limit);
+                // Variances are positive here: squares compared, 32 x 32 bits.
+                let v = self.m[i][j].unsigned_abs();
+                let limit =
+                    wide_mul_unsigned(self.m[i][i].max(0) as u32, self.m[j][j].max(0) as u32);
+                if wide_mul_unsigned(v, v) > limit - (limit >> 9) {
+                    for k in [i, j] {
+                        let d = self.m[k][k];
+                        self.m[k][k] = d.saturating_add((d >> 9) + 1);
+                    }
+                }
+            }
+        }
+        self.bound_variances(floor, ceiling);
+    }
+
+    /// Scales row and column `i` by `sqrt(ceiling / P_ii)` so that `P_ii` is `ceiling`.
+    #[cold]
+    fn scale_down(&mut self, i: usize, ceiling: i32) {
+        let ratio =
+            (u64::from(ceiling.max(0) as u32) << 32) / u64::from(self.m[i][i].max(1) as u32);
+        let c = isqrt(ratio) as i64; // Q16, below 1
+        for j in 0..N {
+            if j != i {
+                let v = clamp32(mul_shift(i64::from(self.m[i][j]), c, 16));
                 self.m[i][j] = v;
                 self.m[j][i] = v;
             }
         }
+        self.m[i][i] = ceiling;
     }
-
-    fn symmetrise(&mut self) {
-        for i in 0..N {
-            for j in i + 1..N {
-                let (a, b) = (self.m[i][j], self.m[j][i]);
-                let v = (a >> 1) + (b >> 1) + (a & b & 1);
-                self.m[i][j] = v;
-                self.m[j][i] = v;
-            }
-        }
-    }
-}
-
-/// `a / s` in Q[`GAIN_SHIFT`], rounded to nearest; `s > 0`.
-fn gain(a: i64, s: i64) -> i64 {
-    match a.checked_mul(1 << GAIN_SHIFT) {
-        Some(num) => {
-            let half = s / 2;
-            if num >= 0 {
-                num.saturating_add(half) / s
-            } else {
-                num.saturating_sub(half) / s
-            }
-        }
-        None => {
-            let q = (i128::from(a) << GAIN_SHIFT) / i128::from(s);
-            q.clamp(i64::MIN as i128, i64::MAX as i128) as i64
-        }
-    }
-}
-
-/// Floor of the square root.
-pub fn isqrt_u64(n: u64) -> u64 {
-    if n < 2 {
-        return n;
-    }
-    // Bit by bit: no division, no floats.
-    let mut x = n;
-    let mut result = 0u64;
-    let mut bit = 1u64 << ((63 - n.leading_zeros()) & !1);
-    while bit != 0 {
-        if x >= result + bit {
-            x -= result + bit;
-            result = (result >> 1) + bit;
-        } else {
-            result >>= 1;
-        }
-        bit >>= 2;
-    }
-    result
 }

@@ -1,8 +1,9 @@
 //! The filter's state and its prediction from odometry.
 
 use super::config::EstimatorConfig;
-use super::covariance::{mul_shift, Covariance, Entry, N};
-use super::units::{self, square, FINE_SHIFT};
+use super::covariance::{Covariance, Entry, N};
+use super::fixed::{mul_shift, square};
+use super::units::{self, FINE_SHIFT};
 use super::{Calibration, Estimate, PoseCovariance, State, TagCounters};
 use crate::frame::GyroRate;
 use crate::odometry::{Motion, OdometryConfig};
@@ -10,16 +11,17 @@ use crate::pose::Pose;
 
 /// The covariance's floor: no variance ever reaches zero (a filter sure of anything
 /// stops listening). Position 1/8 mm, heading 6e-5 rad, calibration one unit.
-const FLOOR: [i64; N] = [4, 4, 16, 1, 1, 1];
-/// The covariance's ceiling: position 10 m, heading 1 rad, gyro scale 10 %, gyro bias
-/// 5 deg/s, flow scale 30 %, each as a standard deviation.
-const CEILING: [i64; N] = [
-    square(10_000 * units::POSITION_PER_MM),
-    square(10_000 * units::POSITION_PER_MM),
-    square(units::HEADING_PER_RAD),
-    square(6_554),
-    square(5_720),
-    square(19_661),
+const FLOOR: [i32; N] = [4, 4, 16, 1, 1, 1];
+/// The covariance's ceiling, as standard deviations: position 2.5 m, heading 34 degrees
+/// (past either the robot is lost, and a linear filter with it), gyro scale 10 %, gyro
+/// bias 5 deg/s, flow scale 30 %. Each fits the matrix's 32 bits.
+const CEILING: [i32; N] = [
+    40_000 * 40_000,
+    40_000 * 40_000,
+    39_000 * 39_000,
+    6_554 * 6_554,
+    5_720 * 5_720,
+    19_661 * 19_661,
 ];
 
 /// Learned calibration beyond which the sensors are broken, not miscalibrated: gyro
@@ -39,6 +41,8 @@ pub struct Estimator {
     /// Gyro scale, gyro bias and flow scale corrections, fine units.
     pub(super) calibration: [i64; 3],
     pub(super) counters: TagCounters,
+    /// The process noise's fractions of a unit not yet added, in 1/256 units.
+    noise_carry: [u8; N],
 }
 
 impl Estimator {
@@ -61,8 +65,9 @@ impl Estimator {
             p,
             calibration: [0; 3],
             counters: TagCounters::default(),
+            noise_carry: [0; N],
         };
-        e.p.bound(&FLOOR, &CEILING);
+        e.settle();
         e
     }
 
@@ -102,29 +107,31 @@ impl Estimator {
         }
     }
 
-    /// The odometry's calibration with what has been learned added to `nominal`.
+    /// The flow sensor's calibration with the learned scale applied to `nominal`'s.
     pub fn odometry(&self, nominal: &OdometryConfig) -> OdometryConfig {
-        let c = self.calibration();
         let flow = i64::from(nominal.flow_um_per_count_q16);
-        let flow = flow + flow * i64::from(c.flow_scale_ppm) / 1_000_000;
+        let flow = flow + mul_shift(flow, self.calibration[2], 16 + FINE_SHIFT);
         OdometryConfig {
             flow_um_per_count_q16: flow.clamp(1, i32::MAX as i64) as i32,
-            gyro_scale_ppm: nominal.gyro_scale_ppm.saturating_add(c.gyro_scale_ppm),
+            ..*nominal
         }
     }
 
-    /// A gyro reading with the learned bias taken off.
-    pub fn unbias(&self, gyro: GyroRate) -> GyroRate {
+    /// A gyro reading with the learned bias taken off and the learned scale applied (as a
+    /// multiply here, not as the odometry's parts per million, which cost a division).
+    pub fn correct_gyro(&self, gyro: GyroRate) -> GyroRate {
+        let [scale, bias, _] = self.calibration;
+        let rate = i64::from(gyro.rate_mdps) - units::mdps_from_fine_bias(bias);
+        let rate = rate + mul_shift(rate, scale, 16 + FINE_SHIFT);
         GyroRate {
-            rate_mdps: gyro
-                .rate_mdps
-                .saturating_sub(self.calibration().gyro_bias_mdps),
+            rate_mdps: rate.clamp(i32::MIN as i64, i32::MAX as i64) as i32,
         }
     }
 
     /// Carries the covariance through one tick's odometry: `before` and `after` are the
     /// poses either side of `motion`, which took `dt_us`; `flow` and `gyro` say whether
     /// each reading was there.
+    #[inline(never)]
     pub fn predict(
         &mut self,
         before: &Pose,
@@ -140,6 +147,7 @@ impl Estimator {
         let dt = units::seconds_q16_from_us(dt_us);
         // The Jacobian's off-diagonal part, Q16 (see the covariance module for why these
         // are the plain displacements).
+        let q16 = |x: i64| x.clamp(i32::MIN as i64, i32::MAX as i64) as i32;
         let mut d: [Entry; 6] = [(State::X, State::X, 0); 6];
         let mut n = 0;
         let mut push = |e: Entry| {
@@ -148,51 +156,63 @@ impl Estimator {
                 n += 1;
             }
         };
-        push((State::X, State::Heading, dy));
-        push((State::Y, State::Heading, -dx));
+        push((State::X, State::Heading, q16(dy)));
+        push((State::Y, State::Heading, q16(-dx)));
         if flow {
-            push((State::X, State::FlowScale, dx));
-            push((State::Y, State::FlowScale, dy));
+            push((State::X, State::FlowScale, q16(dx)));
+            push((State::Y, State::FlowScale, q16(dy)));
         }
         if gyro {
-            push((State::Heading, State::GyroScale, turn));
-            push((State::Heading, State::GyroBias, -dt));
+            push((State::Heading, State::GyroScale, q16(turn)));
+            push((State::Heading, State::GyroBias, q16(-dt)));
         }
-        self.p.propagate(d.get(..n).unwrap_or(&[]));
-        self.p
-            .add_diagonal(self.process_noise(dx, dy, turn, flow, gyro));
-        self.p.bound(&FLOOR, &CEILING);
+        // The noise in 1/256 units, its fraction carried to the next tick.
+        let mut q = self.process_noise_q8(dx, dy, turn, flow, gyro);
+        for (q, carry) in q.iter_mut().zip(self.noise_carry.iter_mut()) {
+            let total = q.saturating_add(i64::from(*carry));
+            *carry = (total & 0xFF) as u8;
+            *q = total >> 8;
+        }
+        self.p.propagate(d.get(..n).unwrap_or(&[]), &q, &CEILING);
+        self.p.bound_variances(&FLOOR, &CEILING);
     }
 
-    /// The noise one tick adds, in covariance units.
-    fn process_noise(&self, dx: i64, dy: i64, turn: i64, flow: bool, gyro: bool) -> [i64; N] {
+    /// The noise one tick adds, in covariance units times 2^8: the standard deviations
+    /// are formed in 1/256 of a unit, so that a fraction of a unit is not rounded away
+    /// before squaring.
+    fn process_noise_q8(&self, dx: i64, dy: i64, turn: i64, flow: bool, gyro: bool) -> [i64; N] {
         let c = &self.config;
-        let distance = crate::pose::hypot(dx, dy) as i64;
+        // A standard deviation in 1/256 units squared, in 1/256 units of variance.
+        let var = |sigma_q8: i64| square(sigma_q8) >> 8;
+        let position_q8 = |um: u32| mul_shift(i64::from(um), 1_073_742, 18);
+        let heading_q8 = |mdeg: u32| mul_shift(i64::from(mdeg), 74_961, 8);
+        let scale_q8 = |ppm: u32| mul_shift(i64::from(ppm), 4295, 8);
+        let distance = crate::pose::hypot(dx, dy).min(i64::MAX as u64) as i64;
         let turn = turn.abs();
         let position = if flow {
-            square(units::position_from_um(i64::from(c.position_noise_um)))
-                + square(mul_shift(distance, ppm_q16(c.position_noise_ppm), 16))
-                + square(
-                    units::position_from_um(i64::from(c.position_noise_um_per_rad))
-                        .saturating_mul(turn)
-                        >> 16,
-                )
+            var(position_q8(c.position_noise_um))
+                + var(mul_shift(distance, ppm_q16(c.position_noise_ppm), 8))
+                + var(mul_shift(
+                    position_q8(c.position_noise_um_per_rad),
+                    turn,
+                    16,
+                ))
         } else {
-            square(units::position_from_um(i64::from(c.stale_flow_mm) * 1000))
+            var(position_q8(c.stale_flow_mm.saturating_mul(1000)))
         };
         let heading = if gyro {
-            square(units::heading_from_mdeg(i64::from(c.heading_noise_mdeg)))
-                + square(mul_shift(turn, ppm_q16(c.heading_noise_ppm), 16))
+            var(heading_q8(c.heading_noise_mdeg))
+                + var(mul_shift(turn, ppm_q16(c.heading_noise_ppm), 8))
         } else {
-            square(units::heading_from_mdeg(i64::from(c.stale_gyro_mdeg)))
+            var(heading_q8(c.stale_gyro_mdeg))
         };
         [
             position,
             position,
             heading,
-            square(units::scale_from_ppm(i64::from(c.gyro_scale_walk_ppm))),
-            square(units::bias_from_mdps(i64::from(c.gyro_bias_walk_mdps))),
-            square(units::scale_from_ppm(i64::from(c.flow_scale_walk_ppm))),
+            var(scale_q8(c.gyro_scale_walk_ppm)),
+            var(heading_q8(c.gyro_bias_walk_mdps)),
+            var(scale_q8(c.flow_scale_walk_ppm)),
         ]
     }
 
@@ -203,8 +223,15 @@ impl Estimator {
         }
     }
 
-    /// Keeps the covariance a covariance after an update.
-    pub(super) fn bound(&mut self) {
+    /// Keeps the variances within bounds after an update.
+    pub(super) fn bound_variances(&mut self) {
+        self.p.bound_variances(&FLOOR, &CEILING);
+    }
+
+    /// Ends a tick's updates: variances within bounds and correlations below one, so
+    /// that the rounding of many updates never costs the matrix its positive
+    /// definiteness.
+    pub fn settle(&mut self) {
         self.p.bound(&FLOOR, &CEILING);
     }
 }

@@ -24,6 +24,7 @@
 pub mod config;
 pub mod covariance;
 mod filter;
+pub mod fixed;
 mod sighting;
 pub mod units;
 

@@ -1,8 +1,9 @@
 //! One tag sighting as a range-and-bearing update, gated by chi-square.
 
-use super::covariance::{mul_shift, GAIN_SHIFT, N};
+use super::covariance::{GAIN_SHIFT, N};
 use super::filter::Estimator;
-use super::units::{self, square, FINE_SHIFT};
+use super::fixed::{fits_i32, mul_shift, square, Reciprocal};
+use super::units::{self, FINE_SHIFT};
 use super::{State, TagRefusal};
 use crate::angle::Angle;
 use crate::frame::TagDetection;
@@ -13,16 +14,13 @@ use crate::tagfix::{CameraConfig, KnownTag};
 /// (whose entries grow as one over the range).
 const MIN_JACOBIAN_RANGE_MM: i64 = 50;
 
-/// `h a` for a sparse Q16 row `h`.
-fn dot(h: &[(State, i64)], a: &[i64; N]) -> i64 {
-    h.iter().fold(0i64, |sum, &(j, v)| {
-        sum.saturating_add(mul_shift(a[j as usize], v, 16))
-    })
-}
-
 /// `nu^2 / s` in Q8, saturating.
-fn normalised_square_q8(nu: i64, s: i64) -> i64 {
-    nu.saturating_mul(nu).saturating_mul(1 << 8) / s.max(1)
+fn normalised_square_q8(nu: i64, s: &Reciprocal) -> i64 {
+    if fits_i32(nu) {
+        s.times(nu * nu, 8)
+    } else {
+        i64::MAX
+    }
 }
 
 impl Estimator {
@@ -51,6 +49,7 @@ impl Estimator {
         outcome
     }
 
+    #[inline(never)]
     fn try_sight(
         &mut self,
         detection: &TagDetection,
@@ -65,10 +64,15 @@ impl Estimator {
         }
         let then = then.ok_or(TagRefusal::TooOld)?;
 
-        // Where the tag should be seen from `then`.
+        // Where the tag should be seen from `then`, in position units (a tag within the
+        // camera's reach is within 2^15 of them: a 32-bit root).
         let dx_um = i64::from(tag.x_mm) * 1000 - i64::from(then.x_um);
         let dy_um = i64::from(tag.y_mm) * 1000 - i64::from(then.y_um);
-        let range_um = hypot(dx_um, dy_um).min(i64::MAX as u64) as i64;
+        let range = hypot(
+            units::position_from_um(dx_um),
+            units::position_from_um(dy_um),
+        )
+        .min(i64::MAX as u64) as i64;
         let direction = Angle::of_vector(dx_um, dy_um);
         let predicted = direction - then.heading;
         let half_view = Angle::from_millidegrees(i64::from(cfg.half_view_mdeg));
@@ -77,68 +81,78 @@ impl Estimator {
         }
 
         // Innovations: range in position units, bearing in heading units.
-        let nu_range = i64::from(detection.distance_mm) * units::POSITION_PER_MM
-            - units::position_from_um(range_um);
+        let nu_range = i64::from(detection.distance_mm) * units::POSITION_PER_MM - range;
         let seen = camera.bearing(detection.cx_centipx);
         let nu_bearing = units::heading_from_bits(i64::from(seen.diff(predicted)));
 
         // Jacobians, Q16: the range falls as the robot moves towards the tag, the bearing
-        // turns as it moves across the line of sight and against the heading.
-        let (sin, cos) = (i64::from(direction.sin()), i64::from(direction.cos()));
-        let range_mm = ((range_um * 1049) >> 20).max(MIN_JACOBIAN_RANGE_MM);
-        // d(bearing)/dx is -cos / range: heading units per position unit, 2^16 / 16 per
+        // turns as it moves across the line of sight and against the heading. The
+        // bearing's row is `across / range` times a unit row, minus the heading:
+        // d(bearing)/dx is -cos / range, in heading units per position unit 2^16 / 16 per
         // radian per millimetre.
-        let across = |trig: i64| (trig << 12) / range_mm;
+        let (sin, cos) = (direction.sin(), direction.cos());
+        let range_mm = (range / units::POSITION_PER_MM).clamp(MIN_JACOBIAN_RANGE_MM, 1 << 20);
+        let per_range = Reciprocal::of(range_mm).ok_or(TagRefusal::Gate)?;
         let h_range = [(State::X, -sin), (State::Y, -cos)];
-        let h_bearing = [
-            (State::X, -across(cos)),
-            (State::Y, across(sin)),
-            (State::Heading, -(1 << 16)),
-        ];
+        let h_across = [(State::X, -cos), (State::Y, sin)];
+        let unit = |v: i64, t: i32| mul_shift(v, i64::from(t), 16);
+        let range_of = |a: &[i64; N]| unit(a[0], -sin) + unit(a[1], -cos);
+        let bearing_of = |a: &[i64; N]| {
+            per_range.times(unit(a[0], -cos) + unit(a[1], sin), 12) - a[State::Heading as usize]
+        };
 
-        let range_sigma_mm = i64::from(cfg.range_noise_mm)
-            + ((range_mm * i64::from(cfg.range_noise_permille) * 1049) >> 20);
-        let r_range = square(range_sigma_mm * units::POSITION_PER_MM);
+        // Range noise in position units: a constant part and a per-mille part (Q16 of
+        // 1/1000 is 65.536).
+        let range_sigma = i64::from(cfg.range_noise_mm) * units::POSITION_PER_MM
+            + mul_shift(
+                range,
+                mul_shift(i64::from(cfg.range_noise_permille), 4_294_967, 16),
+                16,
+            );
+        let r_range = square(range_sigma);
         let r_bearing = square(units::heading_from_mdeg(i64::from(cfg.bearing_noise_mdeg)));
 
-        let a_range = self.p.times_row(&h_range);
-        let a_bearing = self.p.times_row(&h_bearing);
-        let s_range = dot(&h_range, &a_range).saturating_add(r_range);
-        let s_cross = dot(&h_range, &a_bearing);
-        let s_bearing = dot(&h_bearing, &a_bearing).saturating_add(r_bearing);
-        if s_range <= 0 {
-            return Err(TagRefusal::Gate);
+        let a_range = self.p.times_unit_row(&h_range);
+        let across = self.p.times_unit_row(&h_across);
+        let heading = self.p.column(State::Heading);
+        let mut a_bearing = [0i64; N];
+        for ((a, u), h) in a_bearing.iter_mut().zip(across).zip(heading) {
+            *a = per_range.times(u, 12) - h;
         }
+        let s_range = range_of(&a_range).saturating_add(r_range);
+        let s_cross = range_of(&a_bearing);
+        let s_bearing = bearing_of(&a_bearing).saturating_add(r_bearing);
+        let Some(inv_range) = Reciprocal::of(s_range) else {
+            return Err(TagRefusal::Gate);
+        };
         // The bearing given the range: what is left of it once the range is known.
-        let c = gain_q16(s_cross, s_range);
+        let c = inv_range.times(s_cross, 16);
         let nu_bearing = nu_bearing.saturating_sub(mul_shift(c, nu_range, 16));
         let s_bearing = s_bearing.saturating_sub(mul_shift(c, s_cross, 16));
         let mut a_given = a_bearing;
         for (a, r) in a_given.iter_mut().zip(a_range) {
             *a = a.saturating_sub(mul_shift(c, r, 16));
         }
-        if s_bearing <= 0 {
+        let Some(inv_bearing) = Reciprocal::of(s_bearing) else {
             return Err(TagRefusal::Gate);
-        }
-        let chi2 = normalised_square_q8(nu_range, s_range)
-            .saturating_add(normalised_square_q8(nu_bearing, s_bearing));
+        };
+        let chi2 = normalised_square_q8(nu_range, &inv_range)
+            .saturating_add(normalised_square_q8(nu_bearing, &inv_bearing));
         if chi2 > i64::from(cfg.gate_chi2_q8) {
             return Err(TagRefusal::Gate);
         }
 
         let mut fine = [0i64; N];
         for (a, s, nu) in [
-            (&a_range, s_range, nu_range),
-            (&a_given, s_bearing, nu_bearing),
+            (&a_range, &inv_range, nu_range),
+            (&a_given, &inv_bearing, nu_bearing),
         ] {
-            let Some(k) = self.p.update(a, s) else {
-                return Err(TagRefusal::Gate);
-            };
+            let k = self.p.update(a, s);
             for (f, k) in fine.iter_mut().zip(k) {
                 *f = f.saturating_add(mul_shift(k, nu, GAIN_SHIFT - FINE_SHIFT));
             }
         }
-        self.bound();
+        self.bound_variances();
         let [fx, fy, fh, gs, gb, fs] = fine;
         self.correct_calibration([gs, gb, fs]);
         let shift = |um: i32, fine: i64| {
@@ -150,16 +164,5 @@ impl Estimator {
             y_um: shift(then.y_um, fy),
             heading: then.heading + Angle::from_bits(units::bits_from_fine_heading(fh) as u32),
         })
-    }
-}
-
-/// `a / s` in Q16, rounded; `s > 0`.
-fn gain_q16(a: i64, s: i64) -> i64 {
-    let num = a.saturating_mul(1 << 16);
-    let half = s / 2;
-    if num >= 0 {
-        num.saturating_add(half) / s
-    } else {
-        num.saturating_sub(half) / s
     }
 }

@@ -4,6 +4,8 @@
 //! 2^-16 rad/s. The calibration's means are kept 256 times finer ("fine" units), so that
 //! the small corrections a converged filter makes are not rounded away.
 
+use super::fixed::mul_shift;
+
 /// Position units per millimetre.
 pub const POSITION_PER_MM: i64 = 16;
 /// Heading units per radian.
@@ -13,37 +15,37 @@ pub const FINE_SHIFT: u32 = 8;
 
 /// Micrometres to position units (x 0.016, by a Q26 multiply: no division on the M0+).
 pub fn position_from_um(um: i64) -> i64 {
-    (um.saturating_mul(1_073_742) + (1 << 25)) >> 26
+    mul_shift(um, 1_073_742, 26)
 }
 
 /// A correction in fine position units to micrometres (x 62.5 / 256 = x 125 / 512).
 pub fn um_from_fine_position(fine: i64) -> i64 {
-    (fine.saturating_mul(125) + (1 << 8)) >> 9
+    mul_shift(fine, 125, 9)
 }
 
 /// A signed binary angle (2^32 per turn) to heading units (x 2 pi / 2^16).
 pub fn heading_from_bits(bits: i64) -> i64 {
-    (bits.saturating_mul(411_775) + (1 << 31)) >> 32
+    mul_shift(bits, 411_775, 32)
 }
 
 /// A correction in fine heading units to binary angle units (x 2^8 / (2 pi), Q16).
 pub fn bits_from_fine_heading(fine: i64) -> i64 {
-    (fine.saturating_mul(2_670_177) + (1 << 15)) >> 16
+    mul_shift(fine, 2_670_177, 16)
 }
 
 /// Millidegrees to heading units (x pi / 180000 x 2^16, Q16).
 pub fn heading_from_mdeg(mdeg: i64) -> i64 {
-    (mdeg.saturating_mul(74_961) + (1 << 15)) >> 16
+    mul_shift(mdeg, 74_961, 16)
 }
 
 /// Parts per million to scale units (x 2^16 / 1e6, Q16).
 pub fn scale_from_ppm(ppm: i64) -> i64 {
-    (ppm.saturating_mul(4295) + (1 << 15)) >> 16
+    mul_shift(ppm, 4295, 16)
 }
 
 /// A fine scale (2^-24) to parts per million (x 1e6 / 2^24 = x 15625 / 2^18).
 pub fn ppm_from_fine_scale(fine: i64) -> i64 {
-    (fine.saturating_mul(15_625) + (1 << 17)) >> 18
+    mul_shift(fine, 15_625, 18)
 }
 
 /// Millidegrees per second to gyro bias units (x pi / 180000 x 2^16, as headings).
@@ -53,18 +55,15 @@ pub fn bias_from_mdps(mdps: i64) -> i64 {
 
 /// A fine gyro bias (2^-24 rad/s) to millidegrees per second (x 180000 / pi / 2^24, Q20).
 pub fn mdps_from_fine_bias(fine: i64) -> i64 {
-    (fine.saturating_mul(3581) + (1 << 19)) >> 20
+    mul_shift(fine, 3581, 20)
 }
 
 /// Microseconds to seconds in Q16.
 pub fn seconds_q16_from_us(us: u32) -> i64 {
-    (i64::from(us) * 4295 + (1 << 15)) >> 16
+    mul_shift(i64::from(us), 4295, 16)
 }
 
-/// The variance of a standard deviation, saturating.
-pub const fn square(sigma: i64) -> i64 {
-    sigma.saturating_mul(sigma)
-}
+pub use super::fixed::square;
 
 #[cfg(test)]
 mod tests {

@@ -7,6 +7,8 @@
 
 use std::f64::consts::PI;
 
+pub mod filter;
+
 /// A fixed pseudo-random sequence (Knuth's MMIX linear congruential generator) for sweeps
 /// too large for proptest: the same numbers every run.
 pub struct Lcg(pub u64);

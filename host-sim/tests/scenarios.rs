@@ -1,0 +1,251 @@
+//! The shipped scenarios, a world without tags, the robot's failings as scenario options,
+//! and the run's largest heading error.
+
+mod common;
+
+use common::{host_sim, seed_path, SCORED_FIGURES};
+use host_sim::scenario::SHIPPED;
+use host_sim::{run, Figures, PoseMode, Scenario};
+use std::path::{Path, PathBuf};
+
+fn shipped(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenarios")
+        .join(name)
+}
+
+fn load(name: &str) -> Scenario {
+    match Scenario::load(&shipped(name)) {
+        Ok(s) => s,
+        Err(e) => panic!("{name} must load: {e}"),
+    }
+}
+
+fn figures(scenario: &Scenario, mode: PoseMode) -> Figures {
+    match run(scenario, mode, 1) {
+        Ok(out) => out.figures,
+        Err(e) => panic!("{}: {e}", scenario.name),
+    }
+}
+
+fn seed_text() -> String {
+    std::fs::read_to_string(seed_path()).unwrap_or_default()
+}
+
+/// A scratch file holding `text`, unique to this test run.
+fn scratch(name: &str, text: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("host-sim-scenarios-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).ok();
+    let path = dir.join(name);
+    if let Err(e) = std::fs::write(&path, text) {
+        panic!("cannot write {}: {e}", path.display());
+    }
+    path
+}
+
+/// `host-sim run FILE --json` with `extra` arguments: the exit code, stdout and stderr.
+fn run_cli(path: &Path, extra: &[&str]) -> (Option<i32>, String, String) {
+    let mut args = vec!["run", path.to_str().unwrap_or_default(), "--json"];
+    args.extend_from_slice(extra);
+    let out = host_sim(&args);
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn the_shipped_list_is_the_directory_and_every_one_loads() {
+    let mut listed: Vec<String> = SHIPPED.iter().map(|s| s.to_string()).collect();
+    let mut found: Vec<String> = std::fs::read_dir(shipped(""))
+        .map(|dir| {
+            dir.filter_map(Result::ok)
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .filter(|n| n.ends_with(".toml"))
+                .collect()
+        })
+        .unwrap_or_default();
+    listed.sort();
+    found.sort();
+    assert_eq!(listed, found);
+    for name in SHIPPED {
+        let s = load(name);
+        assert_eq!(
+            format!("{}.toml", s.name),
+            name,
+            "a scenario is named as its file"
+        );
+    }
+}
+
+#[test]
+fn a_world_may_have_no_tags() {
+    let tagless: String = seed_text()
+        .split("[[world.tags]]")
+        .enumerate()
+        .map(|(i, part)| match i {
+            0 => part.to_string(),
+            // Drop each tag's five lines, keep what follows them.
+            _ => part
+                .split_once("\n\n")
+                .map_or("", |(_, rest)| rest)
+                .to_string(),
+        })
+        .collect();
+    assert!(!tagless.contains("tags") && tagless.contains("[start]"));
+    let scenario = match Scenario::parse(&tagless) {
+        Ok(s) => s,
+        Err(e) => panic!("a world without tags must load: {e}"),
+    };
+    assert!(scenario.world.tags.is_empty());
+    let f = figures(&scenario, PoseMode::Tags);
+    assert_eq!((f.ticks, f.fixes, f.first_fix_s), (485, 0, None), "{f:?}");
+    assert!(f.occupied > 100, "the core maps: {f:?}");
+    // The command line takes it too.
+    let (code, out, err) = run_cli(&scratch("tagless.toml", &tagless), &[]);
+    assert_eq!(code, Some(0), "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap_or_default();
+    assert_eq!(v["fixes"].as_u64(), Some(0), "{v}");
+}
+
+#[test]
+fn one_tag_never_gives_the_two_tag_fix() {
+    let s = load("one-tag.toml");
+    assert_eq!(s.world.tags.len(), 1);
+    assert_eq!(s.world.tags[0].id, 11);
+    let tags = figures(&s, PoseMode::Tags);
+    let dr = figures(&s, PoseMode::DeadReckoning);
+    assert_eq!(tags.fixes, 0, "{tags:?}");
+    assert_eq!(tags, dr, "with one tag, `tags` is dead reckoning");
+}
+
+#[test]
+fn the_two_wall_room_has_its_tags_come_and_go() {
+    let s = load("two-wall-room.toml");
+    let facings: Vec<f64> = s.world.tags.iter().map(|t| t.facing_deg).collect();
+    assert!(
+        facings.windows(2).any(|w| w[0] != w[1]),
+        "tags on two different walls: {facings:?}"
+    );
+    let truth = figures(&s, PoseMode::Truth);
+    assert!(truth.duration_s >= 90.0, "{truth:?}");
+    assert_eq!(truth.out_of_place, 0, "the grid covers the room: {truth:?}");
+    let tags = figures(&s, PoseMode::Tags);
+    // No tag is in view at the start; both are at some point; not all the way round.
+    let first = tags.first_fix_s.unwrap_or(0.0);
+    assert!(first > 10.0, "{tags:?}");
+    assert!(
+        tags.fixes > 10 && (tags.fixes as usize) < tags.ticks / 2,
+        "{tags:?}"
+    );
+}
+
+#[test]
+fn the_rough_mat_is_the_seed_mat_with_the_failings() {
+    let seed = load("seed-mat.toml");
+    let rough = load("seed-mat-rough.toml");
+    assert_eq!(rough.world, seed.world);
+    assert_eq!(rough.route, seed.route);
+    assert!(rough.robot.slip.is_some());
+    assert_ne!(rough.sensors.flow.offset_mm, [0.0, 0.0]);
+    assert!(rough.sensors.gyro.bias_walk_dps_per_sqrt_s > 0.0);
+    // Only the failings differ.
+    let mut plain = rough.clone();
+    plain.name = seed.name.clone();
+    plain.robot.slip = None;
+    plain.sensors.flow.offset_mm = [0.0, 0.0];
+    plain.sensors.gyro.bias_walk_dps_per_sqrt_s = 0.0;
+    assert_eq!(plain, seed);
+    let truth = figures(&rough, PoseMode::Truth);
+    assert_eq!(truth.out_of_place, 0, "{truth:?}");
+    let dr = figures(&rough, PoseMode::DeadReckoning);
+    let seed_dr = figures(&seed, PoseMode::DeadReckoning);
+    // The sensor off the axis swings the dead-reckoned pose out in every turn.
+    assert!(
+        dr.max_error_cm > seed_dr.max_error_cm + 1.0,
+        "{dr:?} {seed_dr:?}"
+    );
+}
+
+#[test]
+fn bad_failings_are_refused_by_name() {
+    let seed = seed_text();
+    let slip = "wheel_base_mm = 100\n\n[robot.slip]\nspells_per_min = 4\nspell_s = 0.4\n\
+                speed_loss = 0.3\nskid_mm_per_turn = 5\n";
+    for (name, text, field) in [
+        (
+            "offset3.toml",
+            seed.replace("quality = 120", "quality = 120\noffset_mm = [1, 2, 3]"),
+            "offset_mm",
+        ),
+        (
+            "offset_far.toml",
+            seed.replace("quality = 120", "quality = 120\noffset_mm = [0, 900]"),
+            "sensors.flow.offset_mm[1]",
+        ),
+        (
+            "walk.toml",
+            seed.replace(
+                "noise_dps = 0.1",
+                "noise_dps = 0.1\nbias_walk_dps_per_sqrt_s = -1",
+            ),
+            "sensors.gyro.bias_walk_dps_per_sqrt_s",
+        ),
+        (
+            "loss.toml",
+            seed.replace("wheel_base_mm = 100\n", &slip.replace("0.3", "1.5")),
+            "robot.slip.speed_loss",
+        ),
+        (
+            "spell.toml",
+            seed.replace("wheel_base_mm = 100\n", &slip.replace("0.4", "0")),
+            "robot.slip.spell_s",
+        ),
+        (
+            "skid.toml",
+            seed.replace("wheel_base_mm = 100\n", &slip.replace("= 5", "= nan")),
+            "robot.slip.skid_mm_per_turn",
+        ),
+        (
+            "slip_missing.toml",
+            seed.replace(
+                "wheel_base_mm = 100\n",
+                &slip.replace("spells_per_min = 4\n", ""),
+            ),
+            "spells_per_min",
+        ),
+    ] {
+        assert_ne!(text, seed, "{name}: the replacement must apply");
+        let (code, out, err) = run_cli(&scratch(name, &text), &[]);
+        assert_eq!(code, Some(2), "{name}: {err}");
+        assert!(err.contains(field), "{name}: should name `{field}`: {err}");
+        assert!(!err.contains("panicked") && out.is_empty(), "{name}: {err}");
+    }
+    // The same table, well formed, runs.
+    let good = seed.replace("wheel_base_mm = 100\n", slip);
+    let (code, _, err) = run_cli(&scratch("slip.toml", &good), &[]);
+    assert_eq!(code, Some(0), "{err}");
+}
+
+#[test]
+fn the_largest_heading_error_covers_the_whole_run() {
+    let (code, out, err) = run_cli(&seed_path(), &["--pose", "tags"]);
+    assert_eq!(code, Some(0), "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap_or_default();
+    let get = |key: &str| match v[key].as_f64() {
+        Some(x) => x,
+        None => panic!("no `{key}` in {v}"),
+    };
+    for key in SCORED_FIGURES {
+        assert!(v.get(key).is_some(), "no `{key}` in {v}");
+    }
+    let max = get("max_heading_error_deg");
+    // Before the first fix the seed route drifts further than after it.
+    assert!(max >= get("max_heading_error_after_first_fix_deg"), "{v}");
+    assert!(max >= get("final_heading_error_deg"), "{v}");
+    assert!(max > 2.0 && max < 20.0, "{v}");
+    // With the true pose there is none to speak of.
+    let truth = figures(&load("seed-mat.toml"), PoseMode::Truth);
+    assert!(truth.max_heading_error_deg < 1e-3, "{truth:?}");
+}

@@ -1,0 +1,201 @@
+//! The integer arithmetic the filter runs on, shaped for the Cortex-M0+: it multiplies
+//! 32 bits by 32 in one instruction and calls a library routine for anything wider, and
+//! has no divider at all. Products of operands that fit 32 bits take the fast path; a
+//! division happens once per scalar update, as a reciprocal every gain then multiplies by.
+
+/// Whether `x` fits an `i32`.
+#[inline]
+pub const fn fits_i32(x: i64) -> bool {
+    x >= i32::MIN as i64 && x <= i32::MAX as i64
+}
+
+/// `a * b` for 32-bit `a` and `b`, from four 16 x 16 products: the M0+ multiplies only
+/// 32 x 32 to 32 bits, and a 64-bit `*` is a library call several times slower.
+#[inline(always)]
+pub fn wide_mul(a: i32, b: i32) -> i64 {
+    let u = wide_mul_unsigned(a.unsigned_abs(), b.unsigned_abs()) as i64;
+    if (a < 0) != (b < 0) {
+        -u
+    } else {
+        u
+    }
+}
+
+/// `a * b` for unsigned 32-bit `a` and `b` (as [`wide_mul`]).
+#[inline(always)]
+pub fn wide_mul_unsigned(a: u32, b: u32) -> u64 {
+    let (ah, al) = (a >> 16, a & 0xFFFF);
+    let (bh, bl) = (b >> 16, b & 0xFFFF);
+    let (mid, mid_carry) = (ah * bl).overflowing_add(al * bh);
+    let (low, low_carry) = (al * bl).overflowing_add(mid << 16);
+    let high = ah * bh + (mid >> 16) + (u32::from(mid_carry) << 16) + u32::from(low_carry);
+    (u64::from(high) << 32) | u64::from(low)
+}
+
+/// `a * b / 2^shift`, rounded to nearest; saturating.
+#[inline]
+pub fn mul_shift(a: i64, b: i64, shift: u32) -> i64 {
+    if fits_i32(a) && fits_i32(b) && shift < 62 {
+        // |a b| <= 2^62: the product and the rounding bias fit.
+        (wide_mul(a as i32, b as i32) + ((1i64 << shift) >> 1)) >> shift
+    } else {
+        wide_mul_shift(a, b, shift)
+    }
+}
+
+#[cold]
+#[inline(never)]
+fn wide_mul_shift(a: i64, b: i64, shift: u32) -> i64 {
+    let p = i128::from(a) * i128::from(b);
+    let p = if shift == 0 {
+        p
+    } else {
+        (p + (1i128 << (shift.min(126) - 1))) >> shift.min(126)
+    };
+    saturate(p)
+}
+
+/// `x * x`, saturating.
+#[inline]
+pub const fn square(x: i64) -> i64 {
+    if fits_i32(x) {
+        x * x
+    } else {
+        x.saturating_mul(x)
+    }
+}
+
+fn saturate(x: i128) -> i64 {
+    x.clamp(i64::MIN as i128, i64::MAX as i128) as i64
+}
+
+/// `1 / s` for a positive `s`, as a 31-bit mantissa and a shift: `x / s` is then one
+/// multiply and one shift.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct Reciprocal {
+    /// About `2^61 / m`, where `s = m * 2^e` with `m` in `[2^30, 2^31)`: in
+    /// `(2^30, 2^31)`, within `2^-30` of it relatively.
+    inv: i32,
+    /// `61 + e`: `x / s = x * inv / 2^shift`.
+    shift: i32,
+}
+
+impl Reciprocal {
+    /// The reciprocal of `s`; `None` unless `s > 0`.
+    ///
+    /// Newton-Raphson from a linear first guess, three steps of two 32-bit multiplies
+    /// each: no division (a 64-bit one is a long library loop on the M0+).
+    pub fn of(s: i64) -> Option<Reciprocal> {
+        if s <= 0 {
+            return None;
+        }
+        let width = 64 - s.leading_zeros() as i32; // s in [2^(width-1), 2^width)
+        let e = width - 31;
+        let m = (if e >= 0 { s >> e } else { s << -e }) as u32; // [2^30, 2^31)
+                                                                // With d = m / 2^31 in [0.5, 1), 1 / d is x / 2^30. First guess
+                                                                // 48/17 - 32/17 d, within 1/17; each step squares the error.
+        let mut x = 3_031_741_621u32 - (wide_mul_unsigned(m, 4_042_322_161) >> 32) as u32;
+        for _ in 0..3 {
+            // e = 1 - d x, in Q32 (the product d x is Q61: m is Q31, x is Q30).
+            let error = ((1u64 << 61) as i64 - wide_mul_unsigned(m, x) as i64) >> 29;
+            let step = wide_mul_unsigned(x, error.unsigned_abs() as u32) >> 32;
+            x = if error < 0 {
+                x - step as u32
+            } else {
+                x + step as u32
+            };
+        }
+        Some(Reciprocal {
+            inv: x.min(i32::MAX as u32) as i32,
+            shift: 61 + e,
+        })
+    }
+
+    /// `x * 2^extra / s`, rounded to nearest; saturating.
+    #[inline]
+    pub fn times(&self, x: i64, extra: u32) -> i64 {
+        let shift = self.shift - extra as i32;
+        if fits_i32(x) && (1..62).contains(&shift) {
+            // |x inv| < 2^62.
+            (wide_mul(x as i32, self.inv) + (1i64 << (shift - 1))) >> shift
+        } else {
+            self.times_wide(x, shift)
+        }
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn times_wide(&self, x: i64, shift: i32) -> i64 {
+        let p = i128::from(x) * i128::from(self.inv);
+        if shift <= 0 {
+            saturate(p.saturating_mul(1i128 << (-shift).min(64)))
+        } else if shift >= 127 {
+            0
+        } else {
+            saturate((p + (1i128 << (shift - 1))) >> shift)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mul_shift_rounds_and_saturates() {
+        assert_eq!(mul_shift(3, 1 << 16, 16), 3);
+        assert_eq!(mul_shift(3, 1 << 15, 16), 2); // 1.5 rounds up
+        assert_eq!(mul_shift(-3, 1 << 15, 16), -1); // -1.5 rounds up
+        assert_eq!(mul_shift(1 << 40, 1 << 40, 16), i64::MAX);
+        assert_eq!(mul_shift(i64::MAX, i64::MAX, 0), i64::MAX);
+        assert_eq!(mul_shift(i64::MIN, i64::MAX, 0), i64::MIN);
+    }
+
+    #[test]
+    fn wide_mul_is_the_full_product() {
+        let mut x = 0x2545_F491_4F6C_DD1Du64;
+        for _ in 0..100_000 {
+            x = x.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            let (a, b) = ((x >> 32) as i32, x as i32);
+            assert_eq!(wide_mul(a, b), i64::from(a) * i64::from(b), "{a} x {b}");
+            assert_eq!(
+                wide_mul_unsigned(a as u32, b as u32),
+                u64::from(a as u32) * u64::from(b as u32)
+            );
+        }
+        for (a, b) in [
+            (i32::MIN, i32::MIN),
+            (i32::MIN, i32::MAX),
+            (i32::MAX, i32::MAX),
+            (-1, i32::MIN),
+        ] {
+            assert_eq!(wide_mul(a, b), i64::from(a) * i64::from(b));
+        }
+        assert_eq!(
+            wide_mul_unsigned(u32::MAX, u32::MAX),
+            u64::from(u32::MAX) * u64::from(u32::MAX)
+        );
+    }
+
+    #[test]
+    fn reciprocal_divides_to_within_rounding() {
+        let mut x = 0x9E37_79B9_7F4A_7C15u64;
+        for _ in 0..20_000 {
+            x = x.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            let s = ((x >> 20) % (1 << ((x >> 2) % 50 + 1))) as i64 + 1;
+            let a = ((x >> 7) % (1 << 31)) as i64 - (1 << 30);
+            let r = Reciprocal::of(s).unwrap();
+            let want = (i128::from(a) << 16) as f64 / s as f64;
+            let got = r.times(a, 16) as f64;
+            // Within one unit plus the mantissa's 2^-30 relative error.
+            assert!(
+                (got - want).abs() <= 1.0 + want.abs() * 2e-9,
+                "{a} / {s}: {got} vs {want}"
+            );
+        }
+        assert!(Reciprocal::of(0).is_none());
+        assert!(Reciprocal::of(-5).is_none());
+        assert_eq!(Reciprocal::of(1).unwrap().times(7, 0), 7);
+        assert_eq!(Reciprocal::of(i64::MAX).unwrap().times(i64::MAX, 0), 1);
+    }
+}
