@@ -692,6 +692,9 @@ struct Panel {
     bound: Option<fn(&TickRecord) -> f64>,
     /// The value a perfect filter would learn, dashed across the panel.
     truth: Option<fn(&TrueCalibration) -> f64>,
+    /// The same tick by tick, where it changes (a wandering bias): dashed instead of
+    /// `truth` when the ticks have it.
+    true_series: Option<fn(&TickRecord) -> f64>,
 }
 
 /// A belief's field, or NaN without one.
@@ -709,6 +712,7 @@ const PANELS: [Panel; 4] = [
         min_top: 100.0,
         bound: None,
         truth: None,
+        true_series: None,
     },
     Panel {
         name: "pose error (cm)",
@@ -718,6 +722,7 @@ const PANELS: [Panel; 4] = [
         min_top: 1.0,
         bound: Some(|t| belief_or_nan(t, Belief::bound_3sigma_cm)),
         truth: None,
+        true_series: None,
     },
     Panel {
         name: "heading error, absolute (deg)",
@@ -727,6 +732,7 @@ const PANELS: [Panel; 4] = [
         min_top: 1.0,
         bound: Some(|t| belief_or_nan(t, Belief::bound_3sigma_heading_deg)),
         truth: None,
+        true_series: None,
     },
     Panel {
         name: "walls out of place (% of occupied)",
@@ -736,6 +742,7 @@ const PANELS: [Panel; 4] = [
         min_top: 1.0,
         bound: None,
         truth: None,
+        true_series: None,
     },
 ];
 
@@ -749,6 +756,7 @@ const FILTER_PANELS: [Panel; 3] = [
         min_top: 1.0,
         bound: None,
         truth: Some(|c| c.gyro_scale_ppm),
+        true_series: None,
     },
     Panel {
         name: "learned gyro bias (mdps)",
@@ -758,6 +766,7 @@ const FILTER_PANELS: [Panel; 3] = [
         min_top: 1.0,
         bound: None,
         truth: Some(|c| c.gyro_bias_mdps),
+        true_series: Some(|t| t.true_gyro_bias_mdps),
     },
     Panel {
         name: "learned flow scale correction (ppm)",
@@ -767,6 +776,7 @@ const FILTER_PANELS: [Panel; 3] = [
         min_top: 1.0,
         bound: None,
         truth: Some(|c| c.flow_scale_ppm),
+        true_series: None,
     },
 ];
 
@@ -790,11 +800,15 @@ fn panel_range(panel: &Panel, ticks: &[TickRecord], truth: Option<&TrueCalibrati
         .iter()
         .filter_map(|t| tame(panel.bound.map_or(f64::NAN, |b| b(t))));
     let true_value = panel.truth.zip(truth).and_then(|(f, c)| tame(f(c)));
+    let true_series = ticks
+        .iter()
+        .filter_map(|t| tame(panel.true_series.map_or(f64::NAN, |f| f(t))));
     let values = ticks
         .iter()
         .filter_map(|t| tame((panel.value)(t)))
         .chain(bounds)
-        .chain(true_value);
+        .chain(true_value)
+        .chain(true_series);
     let (lo, hi) = values.fold((0.0f64, f64::MIN), |(lo, hi), v| (lo.min(v), hi.max(v)));
     let top = match panel.fixed_top {
         Some(top) => top.max(hi),
@@ -951,8 +965,20 @@ where
                     .draw(&Polygon::new(outline, BOUND_BAND.filled()))?;
             }
         }
-        // The truth, dashed across.
-        if let Some(value) = panel.truth.zip(truth).and_then(|(f, c)| tame(f(c))) {
+        // The truth, dashed: tick by tick where the ticks have it, else across.
+        let true_segments = panel
+            .true_series
+            .map_or_else(Vec::new, |f| segments_of(ticks, f));
+        for seg in &true_segments {
+            chart.draw_series(DashedLineSeries::new(
+                seg.iter().copied(),
+                8,
+                5,
+                TRUTH_DASH.stroke_width(2),
+            ))?;
+        }
+        let constant = panel.truth.zip(truth).and_then(|(f, c)| tame(f(c)));
+        if let Some(value) = constant.filter(|_| true_segments.is_empty()) {
             chart.draw_series(DashedLineSeries::new(
                 [(x_range.start, value), (x_range.end, value)],
                 8,
@@ -1110,6 +1136,7 @@ mod tests {
                     out_of_place_pct: if t > 2.0 { 100.0 / 168.0 } else { 0.0 },
                     fix_taken: i % 17 == 0,
                     belief: None,
+                    true_gyro_bias_mdps: f64::NAN,
                 }
             })
             .collect();

@@ -39,6 +39,9 @@ pub struct TickRecord {
     pub fix_taken: bool,
     /// What the filter believed after this tick; `None` when the run has no filter.
     pub belief: Option<Belief>,
+    /// The gyro's true bias at this tick, millidegrees per second (it may wander); NaN
+    /// when unknown.
+    pub true_gyro_bias_mdps: f64,
 }
 
 /// The filter's belief at one tick, in the units the pictures and the figures use.
@@ -152,6 +155,7 @@ impl TickRecord {
             out_of_place_pct: f64::NAN,
             fix_taken,
             belief: None,
+            true_gyro_bias_mdps: f64::NAN,
         }
     }
 

@@ -385,6 +385,8 @@ fn run_sized<const W: usize, const H: usize>(
         tick.belief = report
             .estimate
             .map(|e| Belief::new(&e, slam.tag_counters()));
+        tick.true_gyro_bias_mdps =
+            (scenario.sensors.gyro.bias_dps + robot.gyro_bias_walk_dps()) * 1000.0;
         tick.out_of_place_pct = out_of_place_pct;
         ticks.push(tick);
         robot.advance(TICK_S, command);
