@@ -22,7 +22,7 @@ use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::channel::Channel;
 use embassy_sync::watch::{Receiver, Watch};
 use embassy_time::{Duration, Instant, Ticker};
-use slam_core::{Pose, SeedSlam, SensorFrame, SlamConfig, StepReport};
+use slam_core::{Localiser, Pose, SeedSlam, SensorFrame, SlamConfig, StepReport};
 use static_cell::StaticCell;
 use wire::telemetry::{encode, FirmwareVersion, Message, Schedule, Streamer, MAX_FRAME_LEN};
 
@@ -42,11 +42,23 @@ const TICKS_PER_LOG: u32 = 10;
 /// where tags 11 and 12 hang (the simulator's scenario is tested to agree).
 pub const START_POSE: Pose = SlamConfig::SEED_START;
 
+/// What corrects the pose beyond odometry: the filter, which takes every tag sighting and
+/// learns the gyro's and the flow sensor's errors (`host-sim run --pose slam`). The
+/// `two-tag-fix` feature flies the seed's two-tag fix instead (`--pose tags`). The
+/// telemetry's `Hello` says which, so the viewer and the emulator checks know.
+pub const LOCALISER: Localiser = if cfg!(feature = "two-tag-fix") {
+    Localiser::TwoTagFix
+} else {
+    Localiser::Filter
+};
+
 /// The seed's world, its depth beams along the centres of the VL53L5CX's zone columns: the
-/// core's fan of the sensor's own width (the drivers' tests hold the seed's fan to it).
+/// core's fan of the sensor's own width (the drivers' tests hold the seed's fan to it), and
+/// the pose corrected by [`LOCALISER`].
 fn slam_config() -> SlamConfig {
     let mut config = SlamConfig::seed_mat();
     config.depth.beam_angles = slam_core::slam::fan(i64::from(drivers::depth::FOV_MDEG));
+    config.localiser = LOCALISER;
     config
 }
 
@@ -55,16 +67,16 @@ fn slam_config() -> SlamConfig {
 pub const REPORT_READERS: usize = 2;
 
 /// The telemetry schedule at 10 Hz: a `Hello` at the first tick and every 5 s, a `Tick`
-/// every tick, two `MapRows` chunks (four rows of the 46 x 46 grid) every tick, so the
-/// whole map goes round every 1.2 s, and a `Health` every second. At most about 700 bytes
-/// a tick, 7 ms of the 921600 baud link.
+/// every tick (and the filter's `Filter` after it), two `MapRows` chunks (four rows of the
+/// 46 x 46 grid) every tick, so the whole map goes round every 1.2 s, and a `Health` every
+/// second. At most about 600 bytes a tick, 6.5 ms of the 921600 baud link.
 pub const TELEMETRY_SCHEDULE: Schedule = Schedule {
     hello_every_ticks: 50,
     health_every_ticks: 10,
     map_chunks_per_tick: 2,
 };
 
-/// Frames queued for the link: one tick's worth (at most five) with room to spare.
+/// Frames queued for the link: one tick's worth (at most six) with room to spare.
 pub const TELEMETRY_QUEUE: usize = 8;
 
 /// One encoded telemetry frame, delimiter included. `Clone` so the telemetry task can hand
@@ -152,7 +164,7 @@ pub async fn slam_task(watchdog: Peri<'static, WATCHDOG>, inputs: &'static Input
     watchdog.start(WATCHDOG_TIMEOUT);
 
     let reports = REPORTS.sender();
-    let mut streamer = Streamer::new(TELEMETRY_SCHEDULE, FIRMWARE_VERSION);
+    let mut streamer = Streamer::new(TELEMETRY_SCHEDULE, FIRMWARE_VERSION, LOCALISER);
     let mut health = LoopCounters::default();
     let mut ticker = Ticker::every(TICK);
     let mut deadline = Instant::now() + TICK;
@@ -207,7 +219,14 @@ pub async fn slam_task(watchdog: Peri<'static, WATCHDOG>, inputs: &'static Input
         let framing = Instant::now();
         let time_ms = u32::try_from(started.as_millis()).unwrap_or(u32::MAX);
         let sensor_health = HEALTH.sensor_health();
-        streamer.tick(time_ms, &report, slam.map(), &sensor_health, queue_frame);
+        streamer.tick(
+            time_ms,
+            &report,
+            slam.tag_counters(),
+            slam.map(),
+            &sensor_health,
+            queue_frame,
+        );
         health.max_telemetry_us = health
             .max_telemetry_us
             .max(micros(Instant::now().saturating_duration_since(framing)));

@@ -71,7 +71,7 @@ pub const USB_PRODUCT: &str = "BugBot telemetry";
 /// Largest bulk packet at full speed, in bytes: the most one `write_packet` may carry.
 const MAX_PACKET_LEN: u16 = 64;
 
-/// Frames queued for USB: one tick's worth (at most five) with room to spare, as for the
+/// Frames queued for USB: one tick's worth (at most six) with room to spare, as for the
 /// UART. 8 frames of up to `MAX_FRAME_LEN` bytes: about 1.2 KB of RAM.
 pub const USB_QUEUE: usize = 8;
 

@@ -37,6 +37,7 @@
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod consistency;
 pub mod picture;
 pub mod record;
 pub mod robot;

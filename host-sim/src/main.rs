@@ -17,7 +17,9 @@ mod cli;
 
 use clap::Parser;
 use cli::{BenchArgs, Cli, Command, RunArgs, ServeArgs, ViewArgs};
+use host_sim::record::TrueCalibration;
 use host_sim::run::{run, run_with_telemetry, Figures, PoseMode};
+use host_sim::telemetry::estimator_line;
 use host_sim::telemetry::{Recording, TelemetryWriter};
 use host_sim::truth::{parse_truth, TruthSample};
 use host_sim::{picture, RunRecord, Scenario};
@@ -71,7 +73,10 @@ fn load(path: &Path) -> Result<Scenario, Failure> {
 fn cmd_run(args: RunArgs) -> Result<(), Failure> {
     let scenario = load(&args.scenario)?;
     let seed = args.seed.unwrap_or(scenario.seed);
-    let mut writer = args.telemetry.as_ref().map(|_| TelemetryWriter::new());
+    let mut writer = args
+        .telemetry
+        .as_ref()
+        .map(|_| TelemetryWriter::new(args.pose.localiser()));
     let output = run_with_telemetry(&scenario, args.pose, seed, writer.as_mut())
         .map_err(|e| Failure(2, format!("{}: {e}", args.scenario.display())))?;
     if let (Some(path), Some(writer)) = (&args.telemetry, &writer) {
@@ -137,8 +142,12 @@ fn cmd_view(args: ViewArgs) -> Result<(), Failure> {
         recording.recorder = recording.recorder.with_truth(load_truth(path)?);
     }
     if let Some(path) = &args.scenario {
-        let world = host_sim::world::World::new(&load(path)?);
-        recording.recorder = recording.recorder.with_world(world);
+        let scenario = load(path)?;
+        let world = host_sim::world::World::new(&scenario);
+        recording.recorder = recording
+            .recorder
+            .with_world(world)
+            .with_true_calibration(TrueCalibration::of(&scenario));
     }
     let serial = is_serial_device(&args.source);
     let read = if serial {
@@ -237,6 +246,9 @@ fn print_summary(name: &str, mode: PoseMode, seed: u64, f: &Figures) {
         f.final_error_cm,
         f.final_heading_error_deg
     );
+    if let Some(e) = &f.estimator {
+        say!("{}", estimator_line(e));
+    }
     if let Some(t) = f.route_cut_at_s {
         say!(
             "the route was cut at {t:.1} s, before its end: a run lasts at most {} s",

@@ -8,7 +8,9 @@
 //! The map follows the usual occupancy-grid colours: the mat's beige for unknown cells,
 //! light blue for free, black for occupied, with occupied cells that lie on no real wall
 //! or tag outlined in red; the true walls and tags, the true path (green) and the
-//! estimated path (orange) are drawn over it.
+//! estimated path (orange) are drawn over it. A run with the filter adds its 3-sigma
+//! position ellipse along the estimated path every second, and the chart its bounds and
+//! the calibration it learned.
 
 use std::fmt;
 use std::ops::Range;
@@ -21,7 +23,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use plotters::style::{register_font, FontStyle};
 
-use crate::record::{CellBelief, RunRecord, TickRecord};
+use crate::record::{Belief, CellBelief, RunRecord, TickRecord, TrueCalibration};
 
 /// The font every label uses, compiled in.
 const FONT_BYTES: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
@@ -32,6 +34,8 @@ const FONT: &str = "sans-serif";
 const MAP_SIZE: (u32, u32) = (760, 800);
 /// Size of the chart picture, pixels.
 const CHART_SIZE: (u32, u32) = (800, 820);
+/// The chart of a run with the filter: three calibration panels more.
+const FILTER_CHART_SIZE: (u32, u32) = (800, 1280);
 
 /// Coordinates beyond this (in millimetres, seconds or chart units) are clamped, so that
 /// extreme values still give a picture.
@@ -54,6 +58,11 @@ const GRID_LINE: RGBColor = RGBColor(0xdd, 0xdd, 0xdd);
 const FIX_MARK: RGBColor = RGBColor(0x75, 0x4f, 0xb8);
 const KNOWN_LINE: RGBColor = RGBColor(0x21, 0x66, 0xac);
 const HEADING_LINE: RGBColor = RGBColor(0x8c, 0x51, 0x0a);
+const ELLIPSE: RGBColor = RGBColor(0x6a, 0x3d, 0x9a);
+const CALIBRATION_LINE: RGBColor = RGBColor(0x1b, 0x9e, 0x77);
+const TRUTH_DASH: RGBColor = RGBColor(0x44, 0x44, 0x44);
+/// The shade under an error line, up to the filter's 3-sigma bound.
+const BOUND_BAND: RGBColor = RGBColor(0xfd, 0xd0, 0xa2);
 
 /// Why a picture could not be made.
 #[derive(Debug)]
@@ -289,9 +298,65 @@ fn draw_map(record: &RunRecord, path: &Path) -> Result<MapGeometry, PictureError
         let (body, legend) = rest.split_vertically(MAP_SIZE.1 - 62 - 86);
         draw_title(&top, &title_text("Map", record), &map_subtitle(record))?;
         let geometry = draw_map_body(record, &body)?;
-        draw_map_legend(&legend)?;
+        let mm_per_px = (geometry.x.end - geometry.x.start)
+            / f64::from((geometry.px_x.end - geometry.px_x.start).max(1));
+        draw_map_legend(&legend, ellipse_scale(record, mm_per_px))?;
         Ok(geometry)
     })
+}
+
+/// The ticks that get an ellipse: the first with a belief in each whole second, with its
+/// estimated position.
+fn ellipse_ticks(record: &RunRecord) -> impl Iterator<Item = ((f64, f64), Belief)> + '_ {
+    let mut last_second = None;
+    record.ticks.iter().filter_map(move |t| {
+        let belief = t.belief?;
+        let centre = tame_point(t.estimate_mm)?;
+        let second = tame(t.t_s)?.floor() as i64;
+        if last_second == Some(second) {
+            return None;
+        }
+        last_second = Some(second);
+        Some((centre, belief))
+    })
+}
+
+/// Ellipses drawn wider than this across the map (the first seconds, before any tag) are
+/// drawn faint, so that they do not hide the path, pixels of semi-major axis.
+const ELLIPSE_FAINT_PX: f64 = 40.0;
+
+/// How much the ellipses are magnified: the smallest of 1, 2, 5, 10, ... that draws the
+/// median one at least a few pixels across. `None` without ellipses.
+fn ellipse_scale(record: &RunRecord, mm_per_px: f64) -> Option<f64> {
+    let mut majors: Vec<f64> = ellipse_ticks(record)
+        .map(|(_, b)| 3.0 * b.position_axes().0.sqrt() / mm_per_px.max(1e-9))
+        .filter(|a| a.is_finite())
+        .collect();
+    if majors.is_empty() {
+        return None;
+    }
+    majors.sort_by(|a, b| a.total_cmp(b));
+    let median_px = majors[majors.len() / 2];
+    let scale = [1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 500.0, 1000.0]
+        .into_iter()
+        .find(|k| median_px * k >= 5.0)
+        .unwrap_or(1000.0);
+    Some(scale)
+}
+
+/// The outline of `belief`'s 3-sigma position ellipse round `centre`, magnified `scale`
+/// times, millimetres.
+fn ellipse_points(centre: (f64, f64), belief: &Belief, scale: f64) -> Vec<(f64, f64)> {
+    let (big, small, angle) = belief.position_axes();
+    let (a, b) = (3.0 * big.sqrt() * scale, 3.0 * small.sqrt() * scale);
+    let (sin, cos) = angle.sin_cos();
+    (0..=36)
+        .filter_map(|i| {
+            let th = f64::from(i) * std::f64::consts::TAU / 36.0;
+            let (u, v) = (a * th.cos(), b * th.sin());
+            tame_point((centre.0 + u * cos - v * sin, centre.1 + u * sin + v * cos))
+        })
+        .collect()
 }
 
 fn map_subtitle(record: &RunRecord) -> String {
@@ -464,6 +529,25 @@ where
         }
     }
 
+    // The filter's 3-sigma position ellipse every second, magnified to be seen.
+    if let Some(scale) = ellipse_scale(record, mm_per_px) {
+        for (centre, belief) in ellipse_ticks(record) {
+            let outline = ellipse_points(centre, &belief, scale);
+            let major_px = 3.0 * belief.position_axes().0.sqrt() * scale / mm_per_px;
+            let alpha = if major_px > ELLIPSE_FAINT_PX {
+                0.2
+            } else {
+                0.85
+            };
+            if outline.len() > 2 {
+                plot.draw(&PathElement::new(
+                    outline,
+                    ELLIPSE.mix(alpha).stroke_width(1),
+                ))?;
+            }
+        }
+    }
+
     // Tags on top, labelled.
     for (id, c) in &record.world.tags {
         if let Some(c) = tame_point(*c) {
@@ -497,7 +581,10 @@ enum Swatch {
     Tag,
 }
 
-fn draw_map_legend<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>) -> Result<(), PictureError>
+fn draw_map_legend<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    ellipse_scale: Option<f64>,
+) -> Result<(), PictureError>
 where
     DB::ErrorType: 'static,
 {
@@ -516,8 +603,15 @@ where
     ];
     draw_legend(area, &entries, 4, 72)?;
     let (w, _) = area.dim_in_pixel();
+    let note = match ellipse_scale {
+        Some(k) if k > 1.0 => format!(
+            "○ start   ● end   of each path   ·   purple: the filter's 3σ position ellipse each second, drawn ×{k:.0} (faint when large)"
+        ),
+        Some(_) => "○ start   ● end   of each path   ·   purple: the filter's 3σ position ellipse each second".to_string(),
+        None => "○ start   ● end   of each path".to_string(),
+    };
     area.draw(&Text::new(
-        "○ start   ● end   of each path",
+        note,
         (w as i32 / 2, 74),
         font(12.0, MUTED).pos(Pos::new(HPos::Center, VPos::Center)),
     ))?;
@@ -594,8 +688,21 @@ struct Panel {
     fixed_top: Option<f64>,
     /// The smallest top when fitting the data.
     min_top: f64,
+    /// The filter's 3-sigma bound on the value, shaded from 0 up to it (NaN: none).
+    bound: Option<fn(&TickRecord) -> f64>,
+    /// The value a perfect filter would learn, dashed across the panel.
+    truth: Option<fn(&TrueCalibration) -> f64>,
+    /// The same tick by tick, where it changes (a wandering bias): dashed instead of
+    /// `truth` when the ticks have it.
+    true_series: Option<fn(&TickRecord) -> f64>,
 }
 
+/// A belief's field, or NaN without one.
+fn belief_or_nan(t: &TickRecord, f: fn(&Belief) -> f64) -> f64 {
+    t.belief.as_ref().map_or(f64::NAN, f)
+}
+
+/// The panels every chart has.
 const PANELS: [Panel; 4] = [
     Panel {
         name: "known cells (%)",
@@ -603,6 +710,9 @@ const PANELS: [Panel; 4] = [
         value: |t| t.known_pct,
         fixed_top: Some(100.0),
         min_top: 100.0,
+        bound: None,
+        truth: None,
+        true_series: None,
     },
     Panel {
         name: "pose error (cm)",
@@ -610,6 +720,9 @@ const PANELS: [Panel; 4] = [
         value: |t| t.error_cm,
         fixed_top: None,
         min_top: 1.0,
+        bound: Some(|t| belief_or_nan(t, Belief::bound_3sigma_cm)),
+        truth: None,
+        true_series: None,
     },
     Panel {
         name: "heading error, absolute (deg)",
@@ -617,6 +730,9 @@ const PANELS: [Panel; 4] = [
         value: |t| t.heading_error_deg.abs(),
         fixed_top: None,
         min_top: 1.0,
+        bound: Some(|t| belief_or_nan(t, Belief::bound_3sigma_heading_deg)),
+        truth: None,
+        true_series: None,
     },
     Panel {
         name: "walls out of place (% of occupied)",
@@ -624,12 +740,75 @@ const PANELS: [Panel; 4] = [
         value: |t| t.out_of_place_pct,
         fixed_top: None,
         min_top: 1.0,
+        bound: None,
+        truth: None,
+        true_series: None,
     },
 ];
 
-/// The chart's y range for one panel.
-fn panel_range(panel: &Panel, ticks: &[TickRecord]) -> Range<f64> {
-    let values = ticks.iter().filter_map(|t| tame((panel.value)(t)));
+/// The panels a run with the filter adds: the calibration it learned, against the truth.
+const FILTER_PANELS: [Panel; 3] = [
+    Panel {
+        name: "learned gyro scale correction (ppm)",
+        color: CALIBRATION_LINE,
+        value: |t| belief_or_nan(t, |b| b.gyro_scale_ppm),
+        fixed_top: None,
+        min_top: 1.0,
+        bound: None,
+        truth: Some(|c| c.gyro_scale_ppm),
+        true_series: None,
+    },
+    Panel {
+        name: "learned gyro bias (mdps)",
+        color: CALIBRATION_LINE,
+        value: |t| belief_or_nan(t, |b| b.gyro_bias_mdps),
+        fixed_top: None,
+        min_top: 1.0,
+        bound: None,
+        truth: Some(|c| c.gyro_bias_mdps),
+        true_series: Some(|t| t.true_gyro_bias_mdps),
+    },
+    Panel {
+        name: "learned flow scale correction (ppm)",
+        color: CALIBRATION_LINE,
+        value: |t| belief_or_nan(t, |b| b.flow_scale_ppm),
+        fixed_top: None,
+        min_top: 1.0,
+        bound: None,
+        truth: Some(|c| c.flow_scale_ppm),
+        true_series: None,
+    },
+];
+
+/// Whether any tick has the filter's belief.
+fn has_filter(record: &RunRecord) -> bool {
+    record.ticks.iter().any(|t| t.belief.is_some())
+}
+
+/// The chart's panels for `record`, top to bottom.
+fn panels(record: &RunRecord) -> Vec<&'static Panel> {
+    let mut out: Vec<&'static Panel> = PANELS.iter().collect();
+    if has_filter(record) {
+        out.extend(FILTER_PANELS.iter());
+    }
+    out
+}
+
+/// The chart's y range for one panel: its values, its bounds and its truth.
+fn panel_range(panel: &Panel, ticks: &[TickRecord], truth: Option<&TrueCalibration>) -> Range<f64> {
+    let bounds = ticks
+        .iter()
+        .filter_map(|t| tame(panel.bound.map_or(f64::NAN, |b| b(t))));
+    let true_value = panel.truth.zip(truth).and_then(|(f, c)| tame(f(c)));
+    let true_series = ticks
+        .iter()
+        .filter_map(|t| tame(panel.true_series.map_or(f64::NAN, |f| f(t))));
+    let values = ticks
+        .iter()
+        .filter_map(|t| tame((panel.value)(t)))
+        .chain(bounds)
+        .chain(true_value)
+        .chain(true_series);
     let (lo, hi) = values.fold((0.0f64, f64::MIN), |(lo, hi), v| (lo.min(v), hi.max(v)));
     let top = match panel.fixed_top {
         Some(top) => top.max(hi),
@@ -649,31 +828,46 @@ fn panel_range(panel: &Panel, ticks: &[TickRecord]) -> Range<f64> {
 /// (cm), absolute heading error (degrees) and walls out of place (%). Ticks where a tag
 /// fix was taken are marked along the bottom of every panel.
 pub fn chart_png(record: &RunRecord, path: &Path) -> Result<(), PictureError> {
-    render(path, CHART_SIZE, |root| {
+    let filter = has_filter(record);
+    let (size, legend_h) = if filter {
+        (FILTER_CHART_SIZE, 66)
+    } else {
+        (CHART_SIZE, 40)
+    };
+    render(path, size, |root| {
         let (top, rest) = root.split_vertically(62);
-        let (body, legend) = rest.split_vertically(CHART_SIZE.1 - 62 - 40);
+        let (body, legend) = rest.split_vertically(size.1 - 62 - legend_h);
         draw_title(
             &top,
             &title_text("Over time", record),
             &chart_subtitle(record),
         )?;
         draw_chart_body(record, &body)?;
-        draw_legend(
-            &legend,
-            &[
-                (
-                    Swatch::Tick(FIX_MARK),
-                    "tag fix taken (marked along the foot of each panel)",
-                ),
-                (
-                    Swatch::Line(HEADING_LINE),
-                    "heading error is |estimate − truth|, in degrees",
-                ),
-            ],
-            2,
-            80,
-        )
-        .map(|_| ())
+        let mut entries = vec![
+            (
+                Swatch::Tick(FIX_MARK),
+                if filter {
+                    "tag update taken (marks along each panel's foot)"
+                } else {
+                    "tag fix taken (marked along the foot of each panel)"
+                },
+            ),
+            (
+                Swatch::Line(HEADING_LINE),
+                "heading error is |estimate − truth|, in degrees",
+            ),
+        ];
+        if filter {
+            entries.push((
+                Swatch::Cell(BOUND_BAND, None),
+                "the filter's 3σ bound: the error should stay in it",
+            ));
+            entries.push((
+                Swatch::Line(TRUTH_DASH),
+                "dashed: the correction the scenario's sensors need",
+            ));
+        }
+        draw_legend(&legend, &entries, 2, 80).map(|_| ())
     })
 }
 
@@ -712,17 +906,19 @@ where
 
     let (_, h) = area.dim_in_pixel();
     let bottom_extra = 44;
-    let panel_h = (h.saturating_sub(bottom_extra) / PANELS.len() as u32).max(1);
+    let panels = panels(record);
+    let panel_h = (h.saturating_sub(bottom_extra) / panels.len() as u32).max(1);
+    let truth = record.true_calibration.as_ref();
     let mut rest = area.clone();
-    for (i, panel) in PANELS.iter().enumerate() {
-        let last = i + 1 == PANELS.len();
+    for (i, panel) in panels.iter().enumerate() {
+        let last = i + 1 == panels.len();
         let (cell, below) = if last {
             (rest.clone(), rest.clone())
         } else {
             rest.split_vertically(panel_h)
         };
         rest = below;
-        let y_range = panel_range(panel, ticks);
+        let y_range = panel_range(panel, ticks, truth);
         let mut chart = ChartBuilder::on(&cell)
             .margin_left(8)
             .margin_right(24)
@@ -759,6 +955,38 @@ where
             font(14.0, panel.color),
         ))?;
 
+        // The 3-sigma bound, shaded from the foot up, broken where there is none.
+        if let Some(bound) = panel.bound {
+            for seg in segments_of(ticks, bound) {
+                let mut outline = seg.clone();
+                outline.extend(seg.iter().rev().map(|&(x, _)| (x, y_range.start.max(0.0))));
+                chart
+                    .plotting_area()
+                    .draw(&Polygon::new(outline, BOUND_BAND.filled()))?;
+            }
+        }
+        // The truth, dashed: tick by tick where the ticks have it, else across.
+        let true_segments = panel
+            .true_series
+            .map_or_else(Vec::new, |f| segments_of(ticks, f));
+        for seg in &true_segments {
+            chart.draw_series(DashedLineSeries::new(
+                seg.iter().copied(),
+                8,
+                5,
+                TRUTH_DASH.stroke_width(2),
+            ))?;
+        }
+        let constant = panel.truth.zip(truth).and_then(|(f, c)| tame(f(c)));
+        if let Some(value) = constant.filter(|_| true_segments.is_empty()) {
+            chart.draw_series(DashedLineSeries::new(
+                [(x_range.start, value), (x_range.end, value)],
+                8,
+                5,
+                TRUTH_DASH.stroke_width(2),
+            ))?;
+        }
+
         // Fix marks along the foot.
         let foot = y_range.start;
         let mark = (y_range.end - y_range.start) * 0.08;
@@ -773,22 +1001,7 @@ where
         )?;
 
         // The series itself, broken where a value is missing.
-        let mut segment: Vec<(f64, f64)> = Vec::new();
-        let mut segments: Vec<Vec<(f64, f64)>> = Vec::new();
-        for t in ticks {
-            match (tame(t.t_s), tame((panel.value)(t))) {
-                (Some(x), Some(y)) => segment.push((x, y)),
-                _ => {
-                    if !segment.is_empty() {
-                        segments.push(std::mem::take(&mut segment));
-                    }
-                }
-            }
-        }
-        if !segment.is_empty() {
-            segments.push(segment);
-        }
-        for seg in segments {
+        for seg in segments_of(ticks, panel.value) {
             if seg.len() == 1 {
                 chart.draw_series(std::iter::once(Circle::new(
                     seg[0],
@@ -813,6 +1026,26 @@ where
         }
     }
     Ok(())
+}
+
+/// `value` over time as runs of drawable points, broken where it is missing.
+fn segments_of(ticks: &[TickRecord], value: fn(&TickRecord) -> f64) -> Vec<Vec<(f64, f64)>> {
+    let mut segment: Vec<(f64, f64)> = Vec::new();
+    let mut segments: Vec<Vec<(f64, f64)>> = Vec::new();
+    for t in ticks {
+        match (tame(t.t_s), tame(value(t))) {
+            (Some(x), Some(y)) => segment.push((x, y)),
+            _ => {
+                if !segment.is_empty() {
+                    segments.push(std::mem::take(&mut segment));
+                }
+            }
+        }
+    }
+    if !segment.is_empty() {
+        segments.push(segment);
+    }
+    segments
 }
 
 /// An axis number without needless digits.
@@ -902,12 +1135,15 @@ mod tests {
                     heading_error_deg: 0.3 * t * if i % 2 == 0 { 1.0 } else { -1.0 },
                     out_of_place_pct: if t > 2.0 { 100.0 / 168.0 } else { 0.0 },
                     fix_taken: i % 17 == 0,
+                    belief: None,
+                    true_gyro_bias_mdps: f64::NAN,
                 }
             })
             .collect();
         RunRecord {
             scenario: "square-room".into(),
             pose_mode: "tags".into(),
+            true_calibration: None,
             ticks,
             map: MapSnapshot {
                 width: N,
@@ -990,6 +1226,53 @@ mod tests {
     }
 
     #[test]
+    fn a_filter_run_draws_its_bounds_ellipses_and_calibration() {
+        let mut record = synthetic();
+        record.pose_mode = "slam".into();
+        record.true_calibration = Some(TrueCalibration {
+            gyro_scale_ppm: -7444.0,
+            gyro_bias_mdps: 20.0,
+            flow_scale_ppm: 41_667.0,
+        });
+        for (i, t) in record.ticks.iter_mut().enumerate() {
+            let learned = 1.0 - (-(i as f64) / 20.0).exp();
+            t.belief = Some(Belief {
+                // A 3-sigma ellipse of 90 mm by 60 mm: seen unmagnified, not faint.
+                xx_mm2: 900.0,
+                xy_mm2: 0.0,
+                yy_mm2: 400.0,
+                hh_deg2: 0.04,
+                gyro_scale_ppm: -7444.0 * learned,
+                gyro_bias_mdps: 20.0 * learned,
+                flow_scale_ppm: 41_667.0 * learned,
+                tags: slam_core::TagCounters::default().into(),
+            });
+        }
+        let dir = temp_dir("filter");
+        let (map, chart) = (dir.join("map.png"), dir.join("chart.png"));
+        let geometry = draw_map(&record, &map).expect("map");
+        chart_png(&record, &chart).expect("chart");
+        assert_eq!(decode(&chart).0, FILTER_CHART_SIZE.0);
+        assert_eq!(decode(&chart).1, FILTER_CHART_SIZE.1);
+        // The first tick's ellipse: its right-hand end is 90 mm east of the estimate.
+        let img = decode(&map);
+        let t0 = &record.ticks[0];
+        let (x, y) = geometry.to_px((t0.estimate_mm.0 + 90.0, t0.estimate_mm.1));
+        let purple = (x - 2..=x + 2)
+            .flat_map(|x| (y - 2..=y + 2).map(move |y| (x, y)))
+            .any(|p| {
+                let [r, g, b] = pixel(&img, p);
+                b > g && r > g && g < 0x80
+            });
+        assert!(purple, "no ellipse where the first should be");
+        // Without beliefs: no ellipse, the plain chart.
+        record.ticks.iter_mut().for_each(|t| t.belief = None);
+        chart_png(&record, &chart).expect("chart");
+        assert_eq!(decode(&chart).1, CHART_SIZE.1);
+        clean_up(&dir);
+    }
+
+    #[test]
     fn pictures_of_an_empty_run() {
         let mut record = synthetic();
         record.ticks.clear();
@@ -1004,6 +1287,7 @@ mod tests {
         let bare = RunRecord {
             scenario: String::new(),
             pose_mode: String::new(),
+            true_calibration: None,
             ticks: Vec::new(),
             map: MapSnapshot {
                 width: 0,

@@ -1,6 +1,9 @@
 //! One run of a scenario: the robot drives its route and the core maps, tick by tick.
 
-use crate::record::{CellBelief, MapSnapshot, RunRecord, TickRecord, WorldOutline};
+use crate::consistency::{estimator_figures, EstimatorFigures};
+use crate::record::{
+    Belief, CellBelief, MapSnapshot, RunRecord, TickRecord, TrueCalibration, WorldOutline,
+};
 use crate::robot::{Robot, TruePose};
 use crate::route::Route;
 use crate::scenario::Scenario;
@@ -124,6 +127,10 @@ pub struct Figures {
     /// at, seconds; absent (not even `null`) when the route ran to its end.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub route_cut_at_s: Option<f64>,
+    /// The filter's bounds against the truth, its calibration and its tags; absent (not
+    /// even `null`) when the run has no filter (every mode but `slam`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub estimator: Option<EstimatorFigures>,
 }
 
 /// Why a run could not start.
@@ -360,7 +367,7 @@ fn run_sized<const W: usize, const H: usize>(
         let report = slam.step(&frame);
         if let Some(t) = telemetry.as_mut() {
             let time_ms = (ticks.len() as f64 * TICK_S * 1000.0).round() as u32;
-            t.tick(time_ms, &report, slam.map());
+            t.tick(time_ms, &report, slam.tag_counters(), slam.map());
         }
         frames.push(frame);
         let fix_taken = report.fix == FixOutcome::Taken;
@@ -380,6 +387,11 @@ fn run_sized<const W: usize, const H: usize>(
             fix_taken,
         );
         tick.set_truth((truth.x_mm, truth.y_mm), truth.heading_deg);
+        tick.belief = report
+            .estimate
+            .map(|e| Belief::new(&e, slam.tag_counters()));
+        tick.true_gyro_bias_mdps =
+            (scenario.sensors.gyro.bias_dps + robot.gyro_bias_walk_dps()) * 1000.0;
         tick.out_of_place_pct = out_of_place_pct;
         ticks.push(tick);
         robot.advance(TICK_S, command);
@@ -395,6 +407,7 @@ fn run_sized<const W: usize, const H: usize>(
     }
     let counters = slam.counters();
     let errors = pose_errors(&ticks);
+    let true_calibration = TrueCalibration::of(scenario);
     let figures = Figures {
         ticks: ticks.len(),
         duration_s: ticks.len() as f64 * TICK_S,
@@ -414,10 +427,12 @@ fn run_sized<const W: usize, const H: usize>(
         max_error_cm: errors.max_error_cm,
         max_heading_error_deg: errors.max_heading_error_deg,
         route_cut_at_s,
+        estimator: estimator_figures(&ticks, Some(true_calibration)),
     };
     let record = RunRecord {
         scenario: scenario.name.clone(),
         pose_mode: mode.name().to_string(),
+        true_calibration: Some(true_calibration),
         ticks,
         map: snapshot(slam.map(), &real),
         world: WorldOutline::of(robot.world()),

@@ -13,20 +13,25 @@
 //! recorder fills them in and its [`Summary`] carries `host-sim run`'s figures, worked out
 //! by the same code ([`crate::score`]).
 
-use crate::record::{CellBelief, MapSnapshot, RunRecord, TickRecord, WorldOutline};
+use crate::consistency::{estimator_figures, EstimatorFigures};
+use crate::record::{
+    Belief, CellBelief, MapSnapshot, RunRecord, TickRecord, TrueCalibration, WorldOutline,
+};
 use crate::score::{map_counts, out_of_place_mask, pose_errors, real_mask, PoseErrors};
 use crate::truth::{route_start_s, truth_at, TruthSample};
 use crate::world::World;
 use serde::Serialize;
-use slam_core::{Counters, FixOutcome, GridGeometry, GridMap, Occupancy, StepReport};
+use slam_core::{
+    Counters, FixOutcome, GridGeometry, GridMap, Localiser, Occupancy, StepReport, TagCounters,
+};
 use std::fmt;
 use std::io::{self, Read};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 use wire::framing::BadFrames;
 use wire::telemetry::{
-    encode, serialize_counters, CellScale, DecoderStats, FirmwareVersion, Hello, MapRows, Message,
-    Schedule, SensorHealth, StreamDecoder, Streamer, Tick, MAX_FRAME_LEN,
+    encode, serialize_counters, CellScale, DecoderStats, FilterState, FirmwareVersion, Hello,
+    MapRows, Message, Schedule, SensorHealth, StreamDecoder, Streamer, Tick, MAX_FRAME_LEN,
 };
 
 /// The firmware version the simulator claims in its `Hello`: this crate's.
@@ -46,23 +51,19 @@ pub struct TelemetryWriter {
     encode_errors: u32,
 }
 
-impl Default for TelemetryWriter {
-    fn default() -> Self {
-        TelemetryWriter::new()
-    }
-}
-
 impl TelemetryWriter {
-    /// An empty stream on the firmware's default schedule.
-    pub fn new() -> TelemetryWriter {
+    /// An empty stream on the firmware's default schedule, from a robot whose pose
+    /// `localiser` corrects (its `Hello` says so).
+    pub fn new(localiser: Localiser) -> TelemetryWriter {
         TelemetryWriter {
-            streamer: Streamer::new(Schedule::DEFAULT, simulator_firmware()),
+            streamer: Streamer::new(Schedule::DEFAULT, simulator_firmware(), localiser),
             bytes: Vec::new(),
             encode_errors: 0,
         }
     }
 
-    /// One tick's messages, after `step` returned `report`; `time_ms` since the start.
+    /// One tick's messages, after `step` returned `report` (`tags`: the core's
+    /// `tag_counters()`); `time_ms` since the start.
     ///
     /// The simulator has no buses, so its health is what the core saw: a tick without a
     /// depth scan counts as a depth timeout, a tick without flow as flow with no surface,
@@ -71,6 +72,7 @@ impl TelemetryWriter {
         &mut self,
         time_ms: u32,
         report: &StepReport,
+        tags: TagCounters,
         map: &GridMap<W, H>,
     ) {
         let c = &report.counters;
@@ -83,7 +85,9 @@ impl TelemetryWriter {
         };
         let (bytes, errors) = (&mut self.bytes, &mut self.encode_errors);
         self.streamer
-            .tick(time_ms, report, map, &health, |m| push(bytes, errors, m));
+            .tick(time_ms, report, tags, map, &health, |m| {
+                push(bytes, errors, m)
+            });
     }
 
     /// The end of the run: the whole map once more, so the viewer's map is the final one.
@@ -135,12 +139,16 @@ pub struct TelemetryRecorder {
     refused: Option<RefusedHellos>,
     map_rows: u32,
     map_rows_refused: u32,
+    /// `Filter` messages whose tick is not the latest `Tick`'s (its `Tick` was lost).
+    filters_unmatched: u32,
     restarts: u32,
     /// The true poses, in time order, when known.
     truth: Option<Vec<TruthSample>>,
     ticks_without_truth: u32,
     /// The world the robot is in, when known.
     world: Option<World>,
+    /// The corrections the filter should learn, when the scenario is known.
+    true_calibration: Option<TrueCalibration>,
 }
 
 impl TelemetryRecorder {
@@ -162,6 +170,13 @@ impl TelemetryRecorder {
         self
     }
 
+    /// Draws the corrections the robot's filter should learn (the scenario's sensors'
+    /// errors) beside the ones it learned.
+    pub fn with_true_calibration(mut self, calibration: TrueCalibration) -> TelemetryRecorder {
+        self.true_calibration = Some(calibration);
+        self
+    }
+
     /// Takes one decoded message.
     pub fn push(&mut self, message: &Message) {
         match message {
@@ -169,6 +184,17 @@ impl TelemetryRecorder {
             Message::Tick(t) => self.take_tick(t),
             Message::MapRows(r) => self.take_map_rows(r),
             Message::Health(h) => self.health = Some(*h),
+            Message::Filter(f) => self.take_filter(f),
+        }
+    }
+
+    /// A filter's belief belongs to the `Tick` just before it, with the same tick number.
+    fn take_filter(&mut self, f: &FilterState) {
+        match (self.last_tick, self.ticks.last_mut()) {
+            (Some(t), Some(record)) if t.tick == f.tick => {
+                record.belief = Some(Belief::new(&f.estimate(), f.tags));
+            }
+            _ => self.filters_unmatched += 1,
         }
     }
 
@@ -331,6 +357,7 @@ impl TelemetryRecorder {
         RunRecord {
             scenario: name.to_string(),
             pose_mode: "robot telemetry".to_string(),
+            true_calibration: self.true_calibration,
             ticks,
             map: MapSnapshot {
                 width,
@@ -373,6 +400,7 @@ impl TelemetryRecorder {
                 )
             }),
             grid: self.hello.map(|h| (h.width, h.height)),
+            localiser: self.hello.map(|h| localiser_name(h.localiser).to_string()),
             free: map.free as usize,
             occupied: map.occupied as usize,
             known_pct: map.known_pct(),
@@ -391,10 +419,21 @@ impl TelemetryRecorder {
             hellos_refused: self.refused.clone(),
             map_rows: self.map_rows,
             map_rows_refused: self.map_rows_refused,
+            filters_unmatched: self.filters_unmatched,
             restarts: self.restarts,
+            estimator: estimator_figures(&self.ticks, self.true_calibration),
             frames_ok: stats.frames_ok,
             bad_frames: stats.bad_frames,
         }
+    }
+}
+
+/// The name `--pose` gives the mode that flies `localiser`.
+fn localiser_name(localiser: Localiser) -> &'static str {
+    match localiser {
+        Localiser::DeadReckoning => "dead-reckoning",
+        Localiser::TwoTagFix => "tags",
+        Localiser::Filter => "slam",
     }
 }
 
@@ -459,6 +498,9 @@ pub struct Summary {
     pub firmware: Option<String>,
     /// Grid columns and rows.
     pub grid: Option<(u16, u16)>,
+    /// What corrects the robot's pose, from the latest `Hello`, as `--pose` names it:
+    /// `dead-reckoning`, `tags` or `slam` (the filter).
+    pub localiser: Option<String>,
     /// Cells believed free in the latest map.
     pub free: usize,
     /// Cells believed occupied in the latest map.
@@ -478,8 +520,14 @@ pub struct Summary {
     pub map_rows: u32,
     /// Map chunks refused: before any `Hello`, or outside the grid.
     pub map_rows_refused: u32,
+    /// `Filter` messages that did not follow their `Tick` (dropped: its `Tick` was lost).
+    pub filters_unmatched: u32,
     /// Times the tick number went backwards (the robot reset).
     pub restarts: u32,
+    /// The filter's figures, as `host-sim run` gives them (the shares and the median error
+    /// need the truth); absent when the robot sent no `Filter`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub estimator: Option<EstimatorFigures>,
     /// Good frames.
     pub frames_ok: u32,
     /// Dropped frames, by kind (serialised with their `total`).
@@ -537,9 +585,10 @@ impl fmt::Display for Summary {
         let grid = self
             .grid
             .map_or("no Hello".to_string(), |(w, h)| format!("{w} x {h} grid"));
+        let localiser = self.localiser.as_deref().unwrap_or("?");
         writeln!(
             f,
-            "telemetry: firmware {fw}, {grid}: {} ticks, {:.1} s",
+            "telemetry: firmware {fw} ({localiser}), {grid}: {} ticks, {:.1} s",
             self.ticks, self.duration_s
         )?;
         match self.first_fix_s {
@@ -583,6 +632,9 @@ impl fmt::Display for Summary {
                 )?,
             }
         }
+        if let Some(e) = &self.estimator {
+            writeln!(f, "{}", estimator_line(e))?;
+        }
         if let Some(c) = self.counters {
             writeln!(
                 f,
@@ -617,6 +669,33 @@ impl fmt::Display for Summary {
             b.bad_version, b.bad_body, self.map_rows, self.map_rows_refused, self.restarts
         )
     }
+}
+
+/// The filter's figures in a line or two of text, as `run` and `view` print them.
+pub fn estimator_line(e: &EstimatorFigures) -> String {
+    let pct = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.1} %"));
+    let c = &e.calibration;
+    let t = &e.tags;
+    let r = &t.refused;
+    format!(
+        "filter: 3-sigma bound at the end {:.2} cm, {:.2} deg; inside it {} of ticks (heading {}); median bound {:.2} cm, median error {}\n\
+         filter: learned gyro scale {:+.0} ppm, gyro bias {:+.1} mdps, flow scale {:+.0} ppm; tags used {}, refused {} unknown / {} behind / {} too far / {} too old / {} gate",
+        e.bound_3sigma_cm,
+        e.bound_3sigma_heading_deg,
+        pct(e.inside_3sigma_pct),
+        pct(e.inside_3sigma_heading_pct),
+        e.median_bound_cm,
+        e.median_error_cm.map_or("-".to_string(), |v| format!("{v:.2} cm")),
+        c.gyro_scale_ppm,
+        c.gyro_bias_mdps,
+        c.flow_scale_ppm,
+        t.used,
+        r.unknown_id,
+        r.behind,
+        r.too_far,
+        r.too_old,
+        r.gate,
+    )
 }
 
 /// A decoder and a recorder together: bytes in, a record out.

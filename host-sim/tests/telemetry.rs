@@ -381,3 +381,63 @@ fn a_bad_truth_file_is_refused_naming_the_line() {
     assert_eq!(out.status.code(), Some(2));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Whether `a` and `b` have the same shape and values, numbers within 1e-9 of each other.
+fn same_json(a: &serde_json::Value, b: &serde_json::Value) -> bool {
+    use serde_json::Value;
+    match (a, b) {
+        (Value::Number(x), Value::Number(y)) => match (x.as_f64(), y.as_f64()) {
+            (Some(x), Some(y)) => (x - y).abs() <= 1e-9 * x.abs().max(1.0),
+            _ => false,
+        },
+        (Value::Object(x), Value::Object(y)) => {
+            x.len() == y.len()
+                && x.iter()
+                    .all(|(k, v)| y.get(k).is_some_and(|w| same_json(v, w)))
+        }
+        _ => a == b,
+    }
+}
+
+#[test]
+fn the_filters_figures_survive_the_telemetry() {
+    // `run --pose slam` and `view --truth --scenario` of its stream give the same
+    // `estimator` object: covariance, calibration and tags travel whole.
+    let dir = scratch("slam");
+    let stream = dir.join("slam.bin");
+    let out = host_sim(&[
+        "run",
+        path_str(&seed_path()),
+        "--pose",
+        "slam",
+        "--telemetry",
+        path_str(&stream),
+        "--json",
+    ]);
+    assert_eq!(out.status.code(), Some(0));
+    let sim: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_default();
+    let scenario = Scenario::load(&seed_path()).expect("seed scenario loads");
+    let output = run(&scenario, PoseMode::Slam, scenario.seed).expect("seed runs");
+    let truth = dir.join("truth.jsonl");
+    std::fs::write(&truth, truth_lines(&output.record).join("\n") + "\n").ok();
+    let v = view_json(&[
+        "view",
+        path_str(&stream),
+        "--truth",
+        path_str(&truth),
+        "--scenario",
+        path_str(&seed_path()),
+        "--json",
+        "--out",
+        path_str(&dir),
+    ]);
+    assert_eq!(v["localiser"], "slam", "{v}");
+    assert_eq!(v["filters_unmatched"], 0, "{v}");
+    let (e, s) = (&v["estimator"], &sim["estimator"]);
+    assert!(s.is_object(), "run --pose slam has an estimator: {sim}");
+    // The same keys and values; errors scored from the truth file's text may differ in
+    // the last digits.
+    assert!(same_json(e, s), "view {e}\nrun {s}");
+    assert!(dir.join("slam-chart.png").is_file());
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -233,3 +233,68 @@ fn a_truth_that_matches_no_tick_scores_nothing() {
     assert_eq!(keys(&scored), keys(&json));
     assert!(scored["final_error_cm"].is_f64(), "{scored}");
 }
+
+/// A `Filter` for tick `n`: 2 mm and 0.5 degrees of doubt (1 sigma), some calibration.
+fn filter(n: u32) -> Message {
+    use slam_core::{Calibration, PoseCovariance, TagCounters};
+    let rad = 0.5f64.to_radians() * 65536.0;
+    Message::Filter(wire::telemetry::FilterState {
+        tick: n,
+        covariance: PoseCovariance {
+            xx: 4 * 256,
+            yy: 4 * 256,
+            hh: (rad * rad).round() as i64,
+            ..PoseCovariance::default()
+        },
+        calibration: Calibration {
+            gyro_scale_ppm: -7000,
+            gyro_bias_mdps: 15,
+            flow_scale_ppm: 40_000 + n as i32,
+        },
+        tags: TagCounters {
+            used: n,
+            gate: 1,
+            ..TagCounters::default()
+        },
+    })
+}
+
+#[test]
+fn filter_beliefs_join_their_ticks_and_reach_the_summary() {
+    let mut bytes = Vec::new();
+    bytes.extend(frame(&Message::Hello(Hello {
+        localiser: slam_core::Localiser::Filter,
+        ..hello(4, 3)
+    })));
+    for n in 1..=3 {
+        bytes.extend(frame(&tick(n)));
+        bytes.extend(frame(&filter(n)));
+    }
+    // A Filter whose Tick was lost is not pinned on the wrong tick.
+    bytes.extend(frame(&filter(7)));
+    let recording = decode_bytes(&bytes);
+    let record = recording.recorder.record("f");
+    let flows: Vec<Option<f64>> = record
+        .ticks
+        .iter()
+        .map(|t| t.belief.map(|b| b.flow_scale_ppm))
+        .collect();
+    assert_eq!(flows, [Some(40_001.0), Some(40_002.0), Some(40_003.0)]);
+    let summary = recording.summary();
+    assert_eq!(summary.filters_unmatched, 1);
+    assert_eq!(summary.localiser.as_deref(), Some("slam"));
+    let e = summary.estimator.expect("estimator figures");
+    assert!((e.bound_3sigma_cm - 0.6).abs() < 1e-9, "{e:?}");
+    assert!((e.bound_3sigma_heading_deg - 1.5).abs() < 1e-3, "{e:?}");
+    assert_eq!(e.tags.used, 3);
+    // Without the truth nothing is scored, and JSON says so with nulls.
+    assert_eq!(e.inside_3sigma_pct, None);
+    let json = serde_json::to_value(&summary).expect("json");
+    assert!(json["estimator"]["inside_3sigma_pct"].is_null());
+    assert_eq!(json["estimator"]["calibration"]["gyro_bias_mdps"], 15.0);
+
+    // A robot without the filter: no estimator key at all.
+    let plain = decode_bytes(&frame(&tick(1)));
+    let json = serde_json::to_value(plain.summary()).expect("json");
+    assert!(json.get("estimator").is_none());
+}

@@ -30,7 +30,7 @@ import { profilersFromEnv, profileResult } from './profile.mjs';
 import { buildResult } from './result.mjs';
 import { RttDrain } from './rtt.mjs';
 import { runBothCores } from './scheduler.mjs';
-import { StepMeter, findStep } from './step.mjs';
+import { StepMeter, findStep, findFilterCode } from './step.mjs';
 import { openWorld } from './world.mjs';
 import { CameraLink, selfTests as cameraTests } from './devices/camera.mjs';
 import { attachI2cBus } from './devices/i2c-bus.mjs';
@@ -88,7 +88,9 @@ function main() {
     truthLines.push(JSON.stringify(world.truth()));
   };
   const profilers = profilersFromEnv(elf, process.env);
-  const meter = new StepMeter(step, { onStart: recordTruth, profile: profilers.stepProfile });
+  const filter = step.method === 'none' ? null : findFilterCode(args.elf);
+  if (filter) say(`filter measurement: ${filter.method}, ${filter.filterRows} rows in the filter's files`);
+  const meter = new StepMeter(step, { onStart: recordTruth, profile: profilers.stepProfile, filter });
   const hardFault = elf.symbols.find((s) => s.name === 'HardFault');
 
   let run, truth = null;

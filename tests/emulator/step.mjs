@@ -1,11 +1,12 @@
 // Cycles per SLAM step: `core.cycles` across `Slam::step` on core 0, whether the step is
-// its own function or inlined into the SLAM task.
+// its own function or inlined into the SLAM task; and the filter's share of them, by the
+// source file each instruction came from (`findFilterCode`).
 
 import { spawnSync, execFileSync } from 'node:child_process';
 import { round } from './result.mjs';
 
-/// Cycles a step may take for the map and pose update.
-const STEP_BUDGET_CYCLES = 20000;
+/// Cycles a step may take for the map, the pose and the filter (issue 10's target).
+const STEP_BUDGET_CYCLES = 40000;
 /// Cycles per microsecond at the nominal 125 MHz.
 const CYCLES_PER_US = 125;
 
@@ -54,14 +55,76 @@ export function findStep(elfPath, elf) {
   return { method: 'none', reason: 'no Slam::step symbol and no inlined copy in DWARF' };
 }
 
+/// Where the filter's code lies: the instructions whose DWARF line-table row names a file
+/// under `src/estimator/` (slam-core's filter, inlined or not). Returns
+/// `{ classify(pc), method }`: `classify` gives 'filter', 'project' (any other file of
+/// ours) or 'library' (Rust's `core`, compiler builtins, registry crates). Null when
+/// `llvm-dwarfdump` is missing.
+export function findFilterCode(elfPath) {
+  const tool = ['llvm-dwarfdump', 'llvm-dwarfdump-22', 'llvm-dwarfdump-14'].find(
+    (t) => spawnSync(t, ['--version'], { stdio: 'ignore' }).status === 0,
+  );
+  if (!tool) return null;
+  const out = execFileSync(tool, ['--debug-line', elfPath], { maxBuffer: 1 << 30 }).toString();
+  // Rows as [address, kind]: kind 0 library, 1 project, 2 filter, -1 end of a sequence.
+  const rows = [];
+  let dirs = [];
+  let files = [];
+  let pending = null;
+  const kindOf = (path) => {
+    if (/(^|\/)library\/|\/rustc\/|\.cargo\/registry\//.test(path)) return 0;
+    return /(^|\/)src\/estimator\//.test(path) ? 2 : 1;
+  };
+  for (const line of out.split('\n')) {
+    let m;
+    if (line.startsWith('debug_line[')) { dirs = []; files = []; continue; }
+    if ((m = /^include_directories\[\s*(\d+)\] = "(.*)"/.exec(line))) { dirs[Number(m[1])] = m[2]; continue; }
+    if ((m = /^file_names\[\s*(\d+)\]:/.exec(line))) { pending = { i: Number(m[1]) }; continue; }
+    if (pending && (m = /^\s+name: "(.*)"/.exec(line))) { pending.name = m[1]; continue; }
+    if (pending && (m = /^\s+dir_index: (\d+)/.exec(line))) {
+      const dir = dirs[Number(m[1])];
+      files[pending.i] = kindOf(dir ? `${dir}/${pending.name || ''}` : pending.name || '');
+      pending = null;
+      continue;
+    }
+    if ((m = /^0x([0-9a-f]+)\s+\d+\s+\d+\s+(\d+)\s.*?(end_sequence)?\s*$/.exec(line))) {
+      rows.push([parseInt(m[1], 16), m[3] ? -1 : files[Number(m[2])] ?? 1]);
+    }
+  }
+  rows.sort((a, b) => a[0] - b[0]);
+  const addr = rows.map((r) => r[0]);
+  const kind = rows.map((r) => r[1]);
+  const names = ['library', 'project', 'filter'];
+  const cache = new Map();
+  return {
+    method: `by source file: src/estimator/ and the library code it calls (${tool} --debug-line)`,
+    filterRows: kind.filter((k) => k === 2).length,
+    classify(pc) {
+      let k = cache.get(pc);
+      if (k !== undefined) return k;
+      let a = 0, b = addr.length - 1, at = -1;
+      while (a <= b) {
+        const mid = (a + b) >> 1;
+        if (addr[mid] <= pc) { at = mid; a = mid + 1; } else b = mid - 1;
+      }
+      k = at < 0 || kind[at] < 0 ? 'library' : names[kind[at]];
+      cache.set(pc, k);
+      return k;
+    },
+  };
+}
+
 /// Measures each step as a window of core 0's cycles: opened at the step's first
 /// instruction, closed at the function's return (a real function) or when core 0 next
 /// sleeps (inlined: the window ends at the last instruction seen inside the step's
 /// ranges). Cycles spent in interrupt handlers inside the window are not the step's.
 export class StepMeter {
   /// `step`: what `findStep` found. `onStart()`: called as each step begins, before its
-  /// first instruction runs. `profile`: a `functionProfiler`, or null.
-  constructor(step, { onStart, profile }) {
+  /// first instruction runs. `profile`: a `functionProfiler`, or null. `filter`: what
+  /// `findFilterCode` found, or null: each instruction of the step is the filter's when
+  /// it comes from the filter's files, or from library code (builtins, `core`) reached
+  /// from them; an instruction from any other file of ours ends the filter's part.
+  constructor(step, { onStart, profile, filter = null }) {
     this.step = step;
     this.isFunction = step.method === 'function';
     this.ranges = step.ranges || [];
@@ -81,6 +144,12 @@ export class StepMeter {
     /// Each step's cycles, and the interrupt cycles left out of each.
     this.cycles = [];
     this.isrCycles = [];
+    this.filter = filter;
+    this.inFilter = false;
+    this.filterNow = 0;
+    this.filterAtEnd = 0;
+    /// Each step's cycles in the filter.
+    this.filterCycles = [];
   }
 
   inRanges(pc) {
@@ -93,6 +162,9 @@ export class StepMeter {
     this.open = true;
     this.start = core.cycles;
     this.isr = 0;
+    this.inFilter = false;
+    this.filterNow = 0;
+    this.filterAtEnd = 0;
     this.onStart();
   }
 
@@ -117,15 +189,24 @@ export class StepMeter {
   /// only while the window is open.
   after(pc, core, cyclesBefore, inside) {
     if (core.IPSR !== 0) this.isr += core.cycles - cyclesBefore;
-    else if (this.profile) this.profile.add(pc, core.cycles - cyclesBefore);
+    else {
+      if (this.profile) this.profile.add(pc, core.cycles - cyclesBefore);
+      if (this.filter) {
+        const k = this.filter.classify(pc);
+        if (k !== 'library') this.inFilter = k === 'filter';
+        if (this.inFilter) this.filterNow += core.cycles - cyclesBefore;
+      }
+    }
     if (inside) {
       this.end = core.cycles;
       this.isrAtEnd = this.isr;
+      this.filterAtEnd = this.filterNow;
       if (this.profile) this.profile.mark();
     }
     if (this.fnReturn >= 0 && core.PC === this.fnReturn && core.SP >= this.fnSp && core.IPSR === 0) {
       this.end = core.cycles;
       this.isrAtEnd = this.isr;
+      this.filterAtEnd = this.filterNow;
       this.fnReturn = -1;
       this.close();
     }
@@ -136,6 +217,7 @@ export class StepMeter {
     if (!this.open) return;
     this.open = false;
     this.cycles.push(this.end - this.start - this.isrAtEnd);
+    this.filterCycles.push(this.filterAtEnd);
     if (this.profile) this.profile.commit();
     this.isrCycles.push(this.isrAtEnd);
   }
@@ -156,6 +238,27 @@ export class StepMeter {
       step_cycles_over_budget: sorted.filter((c) => c > STEP_BUDGET_CYCLES).length,
       step_us_max_at_125mhz: sorted.length ? round(max / CYCLES_PER_US, 1) : null,
       step_isr_cycles_excluded_max: this.isrCycles.length ? Math.max(...this.isrCycles) : 0,
+      ...this.filterSummary(),
+    };
+  }
+
+  /// The filter's part of the steps: its cycles per step (median, p99, max), its share of
+  /// all step cycles, and its cycles in the costliest step.
+  filterSummary() {
+    if (!this.filter) return { filter_measure: 'llvm-dwarfdump is missing: not measured' };
+    const sorted = [...this.filterCycles].sort((x, y) => x - y);
+    const pick = (q) => (sorted.length ? sorted[Math.min(sorted.length - 1, Math.floor(q * sorted.length))] : null);
+    const total = this.cycles.reduce((a, c) => a + c, 0);
+    const filterTotal = this.filterCycles.reduce((a, c) => a + c, 0);
+    let worst = -1;
+    this.cycles.forEach((c, i) => { if (worst < 0 || c > this.cycles[worst]) worst = i; });
+    return {
+      filter_measure: this.filter.method,
+      filter_cycles_median: pick(0.5),
+      filter_cycles_p99: pick(0.99),
+      filter_cycles_max: sorted.length ? sorted[sorted.length - 1] : null,
+      filter_share_pct: total > 0 ? round((100 * filterTotal) / total, 1) : null,
+      filter_cycles_in_worst_step: worst >= 0 ? this.filterCycles[worst] : null,
     };
   }
 }

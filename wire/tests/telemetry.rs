@@ -3,8 +3,8 @@
 
 use proptest::prelude::*;
 use slam_core::{
-    Angle, Counters, Evidence, FixOutcome, FixRejection, GridGeometry, GridMap, Pose, SlamConfig,
-    Staleness, StepReport,
+    Angle, Calibration, Counters, Evidence, FixOutcome, FixRejection, GridGeometry, GridMap,
+    Localiser, Pose, PoseCovariance, SlamConfig, Staleness, StepReport, TagCounters,
 };
 use wire::framing::{cobs_encode, crc16};
 use wire::telemetry::*;
@@ -38,6 +38,36 @@ fn hello() -> Message {
         free_below: 16,
         occupied_above: 16,
         firmware: FW,
+        localiser: Localiser::Filter,
+    })
+}
+
+/// A belief as the filter might hold it mid-route: a few millimetres and a degree or so
+/// of doubt, with the seed's gyro and flow scale errors half learned.
+fn filter_state() -> Message {
+    Message::Filter(FilterState {
+        tick: 137,
+        covariance: PoseCovariance {
+            xx: 4_600,
+            xy: -1_200,
+            yy: 3_900,
+            xh: 15_000,
+            yh: -9_000,
+            hh: 1_300_000,
+        },
+        calibration: Calibration {
+            gyro_scale_ppm: -3_700,
+            gyro_bias_mdps: 120,
+            flow_scale_ppm: 21_000,
+        },
+        tags: TagCounters {
+            used: 250,
+            unknown_id: 0,
+            behind: 3,
+            too_far: 17,
+            too_old: 1,
+            gate: 4,
+        },
     })
 }
 
@@ -115,16 +145,81 @@ fn health_frame_fixture() {
         gyro_start_failures: 2,
         ..SensorHealth::default()
     });
-    let stuffed = sealed(&[0xB3, 3, 0, 1, 0xAC, 0x02, 0, 0, 0, 0, 0, 0, 0, 0, 2]);
+    let stuffed = sealed(&[0xB4, 3, 0, 1, 0xAC, 0x02, 0, 0, 0, 0, 0, 0, 0, 0, 2]);
     assert_eq!(frame(&h), stuffed);
     // No zero before the delimiter.
     assert!(!stuffed[..stuffed.len() - 1].contains(&0));
-    assert_eq!(stuffed[0], 3, "first COBS code: b3 03 then a zero");
+    assert_eq!(stuffed[0], 3, "first COBS code: b4 03 then a zero");
+}
+
+#[test]
+fn filter_frame_fixture() {
+    // Version, variant 4, tick 2, xx 300 (zigzag 600: 0xD8 0x04), xy -1 (1), yy 0, xh 0,
+    // yh 0, hh 65536 (zigzag 131072: 0x80 0x80 0x08), gyro scale -2 (3), bias 0, flow
+    // scale 64 (128: 0x80 0x01), used 5 and the five refusals 0, 0, 1, 0, 2.
+    let m = Message::Filter(FilterState {
+        tick: 2,
+        covariance: PoseCovariance {
+            xx: 300,
+            xy: -1,
+            hh: 65_536,
+            ..PoseCovariance::default()
+        },
+        calibration: Calibration {
+            gyro_scale_ppm: -2,
+            gyro_bias_mdps: 0,
+            flow_scale_ppm: 64,
+        },
+        tags: TagCounters {
+            used: 5,
+            too_far: 1,
+            gate: 2,
+            ..TagCounters::default()
+        },
+    });
+    let raw = [
+        0xB4, 4, 2, 0xD8, 0x04, 1, 0, 0, 0, 0x80, 0x80, 0x08, 3, 0, 0x80, 0x01, 5, 0, 0, 1, 0, 2,
+    ];
+    assert_eq!(frame(&m), sealed(&raw));
+    assert_eq!(decode_all(&sealed(&raw)).0, std::vec![Ok(m)]);
+}
+
+#[test]
+fn hello_carries_the_localiser() {
+    // The last byte before the CRC: 0 dead reckoning, 1 two-tag fix, 2 filter.
+    for (localiser, byte) in [
+        (Localiser::DeadReckoning, 0),
+        (Localiser::TwoTagFix, 1),
+        (Localiser::Filter, 2),
+    ] {
+        let mut m = hello();
+        if let Message::Hello(h) = &mut m {
+            h.localiser = localiser;
+        }
+        let body = postcard::to_slice(&m, &mut [0u8; 64])
+            .map(|b| b.to_vec())
+            .unwrap_or_default();
+        assert_eq!(body.last(), Some(&byte), "{localiser:?}");
+        assert_eq!(decode_all(&frame(&m)).0, std::vec![Ok(m)]);
+    }
+    // No fourth localiser.
+    let mut body = postcard::to_slice(&hello(), &mut [0u8; 64])
+        .map(|b| b.to_vec())
+        .unwrap_or_default();
+    if let Some(last) = body.last_mut() {
+        *last = 3;
+    }
+    let mut raw = std::vec![0xB4];
+    raw.extend(body);
+    assert_eq!(
+        decode_all(&sealed(&raw)).0,
+        std::vec![Err(FrameError::Body)]
+    );
 }
 
 #[test]
 fn round_trip_each_message() {
-    for m in [hello(), tick(), map_rows(), health()] {
+    for m in [hello(), tick(), filter_state(), map_rows(), health()] {
         let bytes = frame(&m);
         assert_eq!(bytes.last(), Some(&0));
         assert!(bytes.len() <= MAX_FRAME_LEN);
@@ -184,6 +279,30 @@ fn worst_case_messages_fit() {
         flow_start_failures: u32::MAX,
         gyro_start_failures: u32::MAX,
     };
+    let worst_filter = Message::Filter(FilterState {
+        tick: u32::MAX,
+        covariance: PoseCovariance {
+            xx: i64::MIN,
+            xy: i64::MIN,
+            yy: i64::MIN,
+            xh: i64::MIN,
+            yh: i64::MIN,
+            hh: i64::MIN,
+        },
+        calibration: Calibration {
+            gyro_scale_ppm: i32::MIN,
+            gyro_bias_mdps: i32::MIN,
+            flow_scale_ppm: i32::MIN,
+        },
+        tags: TagCounters {
+            used: u32::MAX,
+            unknown_id: u32::MAX,
+            behind: u32::MAX,
+            too_far: u32::MAX,
+            too_old: u32::MAX,
+            gate: u32::MAX,
+        },
+    });
     let mut worst_hello = hello();
     if let Message::Hello(h) = &mut worst_hello {
         h.width = u16::MAX;
@@ -195,8 +314,9 @@ fn worst_case_messages_fit() {
     for (m, limit) in [
         (big, MAX_FRAME_LEN),
         (worst_tick, 96),
+        (worst_filter, 116),
         (Message::Health(all_max), 66),
-        (worst_hello, 33),
+        (worst_hello, 34),
     ] {
         let bytes = frame(&m);
         assert!(bytes.len() <= limit, "{} > {limit}", bytes.len());
@@ -223,7 +343,7 @@ fn garbage_between_frames_resynchronises() {
     bytes.extend([1, 2, 3, 4, 5, 0]);
     bytes.extend(frame(&tick()));
     bytes.extend([0, 0, 0]); // empty frames: ignored
-    bytes.extend([0xB3, 0x07, 0]); // stuffing that runs past the end
+    bytes.extend([0xB4, 0x07, 0]); // stuffing that runs past the end
     bytes.extend(frame(&health()));
     let (out, stats) = decode_all(&bytes);
     let good: Vec<Message> = out.iter().filter_map(|r| r.clone().ok()).collect();
@@ -281,10 +401,11 @@ fn every_flipped_bit_is_caught() {
 
 #[test]
 fn wrong_version_and_bad_body_are_told_apart() {
-    // Layout 1's and layout 2's health frames: older firmwares'.
+    // Layouts 1, 2 and 3's health frames: older firmwares'.
     for old in [
         std::vec![0xB1, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0],
         std::vec![0xB2, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0],
+        std::vec![0xB3, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0],
     ] {
         assert_eq!(
             decode_all(&sealed(&old)).0,
@@ -293,10 +414,11 @@ fn wrong_version_and_bad_body_are_told_apart() {
     }
 
     for raw in [
-        std::vec![0xB3, 9],                                        // no such variant
-        std::vec![0xB3, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0],             // health cut short
-        std::vec![0xB3, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 7], // a byte left over
-        std::vec![0xB3, 2, 0, 0, 0x81, 0x01],                      // 129 cells announced
+        std::vec![0xB4, 9],                                        // no such variant
+        std::vec![0xB4, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0],             // health cut short
+        std::vec![0xB4, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 7], // a byte left over
+        std::vec![0xB4, 2, 0, 0, 0x81, 0x01],                      // 129 cells announced
+        std::vec![0xB4, 4, 1, 0, 0, 0, 0, 0],                      // filter cut short
     ] {
         assert_eq!(
             decode_all(&sealed(&raw)).0,
@@ -338,7 +460,7 @@ fn seed_map() -> GridMap<46, 46> {
 #[test]
 fn a_sweep_covers_the_map_in_whole_rows() {
     let map = seed_map();
-    let mut s = Streamer::new(Schedule::DEFAULT, FW);
+    let mut s = Streamer::new(Schedule::DEFAULT, FW, Localiser::Filter);
     let mut rebuilt = [[0i8; 46]; 46];
     let scale = CellScale::new(map.evidence());
     for i in 0..23 {
@@ -365,7 +487,7 @@ fn wide_grids_go_in_row_pieces() {
         origin_y_mm: 0,
     };
     let map: GridMap<206, 3> = GridMap::new(geometry, Evidence::SEED);
-    let mut s = Streamer::new(Schedule::DEFAULT, FW);
+    let mut s = Streamer::new(Schedule::DEFAULT, FW, Localiser::Filter);
     let mut seen = Vec::new();
     s.send_whole_map(&map, |m| {
         if let Message::MapRows(r) = m {
@@ -390,7 +512,7 @@ fn wide_grids_go_in_row_pieces() {
 #[test]
 fn the_schedule() {
     let map = seed_map();
-    let mut s = Streamer::new(Schedule::DEFAULT, FW);
+    let mut s = Streamer::new(Schedule::DEFAULT, FW, Localiser::Filter);
     let report = StepReport {
         pose: Pose::from_mm_mdeg(1, 2, 3),
         fix: FixOutcome::Taken,
@@ -401,9 +523,14 @@ fn the_schedule() {
     };
     let mut kinds = Vec::new();
     for t in 0..51u32 {
-        s.tick(t * 100, &report, &map, &SensorHealth::default(), |m| {
-            kinds.push((t, core::mem::discriminant(m)))
-        });
+        s.tick(
+            t * 100,
+            &report,
+            TagCounters::default(),
+            &map,
+            &SensorHealth::default(),
+            |m| kinds.push((t, core::mem::discriminant(m))),
+        );
     }
     let count = |m: &Message| {
         kinds
@@ -413,9 +540,60 @@ fn the_schedule() {
     };
     assert_eq!(count(&hello()), 2); // ticks 0 and 50
     assert_eq!(count(&tick()), 51);
+    assert_eq!(count(&filter_state()), 0, "no estimate, no Filter");
     assert_eq!(count(&map_rows()), 51);
     assert_eq!(count(&health()), 6); // ticks 0, 10, ..., 50
     assert_eq!(kinds[0].1, core::mem::discriminant(&hello()));
+}
+
+#[test]
+fn a_filter_follows_each_tick_with_an_estimate() {
+    let map = seed_map();
+    let mut s = Streamer::new(Schedule::DEFAULT, FW, Localiser::Filter);
+    let Message::Filter(expected) = filter_state() else {
+        unreachable!()
+    };
+    let report = StepReport {
+        pose: Pose::from_mm_mdeg(1, 2, 3),
+        fix: FixOutcome::NotAttempted,
+        stale: Staleness::default(),
+        cells_written: 3,
+        counters: Counters {
+            ticks: expected.tick,
+            ..Counters::default()
+        },
+        estimate: Some(expected.estimate()),
+    };
+    let mut sent = Vec::new();
+    s.tick(
+        0,
+        &report,
+        expected.tags,
+        &map,
+        &SensorHealth::default(),
+        |m| sent.push(m.clone()),
+    );
+    let kinds: Vec<_> = sent.iter().map(core::mem::discriminant).collect();
+    let d = core::mem::discriminant;
+    assert_eq!(
+        kinds,
+        std::vec![
+            d(&hello()),
+            d(&tick()),
+            d(&filter_state()),
+            d(&map_rows()),
+            d(&health())
+        ]
+    );
+    assert_eq!(sent[2], Message::Filter(expected));
+    assert_eq!(
+        FilterState::new(&report, expected.tags).map(|f| f.estimate()),
+        report.estimate
+    );
+    let Message::Hello(h) = &sent[0] else {
+        unreachable!()
+    };
+    assert_eq!(h.localiser, Localiser::Filter);
 }
 
 #[test]
@@ -448,6 +626,30 @@ fn tick_carries_the_report() {
 }
 
 proptest! {
+    #[test]
+    fn arbitrary_filter_states_round_trip(
+        cov in proptest::array::uniform6(any::<i64>()),
+        cal in proptest::array::uniform3(any::<i32>()),
+        tags in proptest::array::uniform7(any::<u32>()),
+    ) {
+        let f = FilterState {
+            tick: tags[6],
+            covariance: PoseCovariance {
+                xx: cov[0], xy: cov[1], yy: cov[2], xh: cov[3], yh: cov[4], hh: cov[5],
+            },
+            calibration: Calibration {
+                gyro_scale_ppm: cal[0], gyro_bias_mdps: cal[1], flow_scale_ppm: cal[2],
+            },
+            tags: TagCounters {
+                used: tags[0], unknown_id: tags[1], behind: tags[2], too_far: tags[3],
+                too_old: tags[4], gate: tags[5],
+            },
+        };
+        let bytes = frame(&Message::Filter(f));
+        prop_assert!(bytes.len() <= 116);
+        prop_assert_eq!(decode_all(&bytes).0, std::vec![Ok(Message::Filter(f))]);
+    }
+
     #[test]
     fn arbitrary_bytes_never_panic(bytes in proptest::collection::vec(any::<u8>(), 0..2000)) {
         let mut d = StreamDecoder::new();

@@ -1,5 +1,6 @@
 //! Helpers shared by host-sim's integration tests.
 
+use slam_core::Localiser;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use wire::telemetry::{FirmwareVersion, Hello};
@@ -50,5 +51,6 @@ pub fn hello(width: u16, height: u16) -> Hello {
         free_below: 16,
         occupied_above: 16,
         firmware: FirmwareVersion::default(),
+        localiser: Localiser::TwoTagFix,
     }
 }

@@ -6,7 +6,9 @@
 //! mirror (and [`WIRE_VERSION`](super::WIRE_VERSION)) follow.
 
 use serde::{Deserialize, Serialize, Serializer};
-use slam_core::{Counters, FixOutcome, FixRejection};
+use slam_core::{
+    Calibration, Counters, FixOutcome, FixRejection, Localiser, PoseCovariance, TagCounters,
+};
 
 /// [`FixRejection`] on the wire: its variant index as a varint.
 #[derive(Serialize, Deserialize)]
@@ -41,6 +43,48 @@ pub(crate) struct CountersDef {
     flow_stale: u32,
     gyro_stale: u32,
     depth_stale: u32,
+}
+
+/// [`Localiser`] on the wire: its variant index as a varint.
+#[derive(Serialize, Deserialize)]
+#[serde(remote = "Localiser", rename = "Localiser")]
+pub(crate) enum LocaliserDef {
+    DeadReckoning,
+    TwoTagFix,
+    Filter,
+}
+
+/// [`PoseCovariance`] on the wire: six zigzag varints, in the filter's units.
+#[derive(Serialize, Deserialize)]
+#[serde(remote = "PoseCovariance", rename = "PoseCovariance")]
+pub(crate) struct PoseCovarianceDef {
+    xx: i64,
+    xy: i64,
+    yy: i64,
+    xh: i64,
+    yh: i64,
+    hh: i64,
+}
+
+/// [`Calibration`] on the wire: three zigzag varints.
+#[derive(Serialize, Deserialize)]
+#[serde(remote = "Calibration", rename = "Calibration")]
+pub(crate) struct CalibrationDef {
+    gyro_scale_ppm: i32,
+    gyro_bias_mdps: i32,
+    flow_scale_ppm: i32,
+}
+
+/// [`TagCounters`] on the wire: six varints.
+#[derive(Serialize, Deserialize)]
+#[serde(remote = "TagCounters", rename = "TagCounters")]
+pub(crate) struct TagCountersDef {
+    used: u32,
+    unknown_id: u32,
+    behind: u32,
+    too_far: u32,
+    too_old: u32,
+    gate: u32,
 }
 
 /// Serialises an optional [`Counters`] under the wire's field names, for host-side

@@ -1,9 +1,14 @@
 //! The telemetry messages: what each carries, in the order postcard lays it out.
 
-use super::core_layout::{CountersDef, FixOutcomeDef};
+use super::core_layout::{
+    CalibrationDef, CountersDef, FixOutcomeDef, LocaliserDef, PoseCovarianceDef, TagCountersDef,
+};
 use super::{CellScale, SensorHealth, MAX_CHUNK_CELLS};
 use serde::{Deserialize, Serialize};
-use slam_core::{Angle, Counters, FixOutcome, GridMap, Pose, Staleness, StepReport};
+use slam_core::{
+    Angle, Calibration, Counters, Estimate, FixOutcome, GridMap, Localiser, Pose, PoseCovariance,
+    Staleness, StepReport, TagCounters,
+};
 
 /// The firmware's version, sent in every [`Hello`].
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Default, Serialize, Deserialize)]
@@ -37,14 +42,19 @@ pub struct Hello {
     pub occupied_above: i8,
     /// Which firmware is talking.
     pub firmware: FirmwareVersion,
+    /// What corrects its pose beyond odometry: with [`Localiser::Filter`] each `Tick`
+    /// is followed by a [`FilterState`].
+    #[serde(with = "LocaliserDef")]
+    pub localiser: Localiser,
 }
 
 impl Hello {
-    /// The `Hello` describing `map`. Dimensions past `u16::MAX` saturate (no such grid
-    /// fits in an RP2040's 264 KB anyway).
+    /// The `Hello` describing `map`, corrected by `localiser`. Dimensions past `u16::MAX`
+    /// saturate (no such grid fits in an RP2040's 264 KB anyway).
     pub fn new<const W: usize, const H: usize>(
         map: &GridMap<W, H>,
         firmware: FirmwareVersion,
+        localiser: Localiser,
     ) -> Hello {
         let g = map.geometry();
         let scale = CellScale::new(map.evidence());
@@ -57,6 +67,7 @@ impl Hello {
             free_below: scale.free_below,
             occupied_above: scale.occupied_above,
             firmware,
+            localiser,
         }
     }
 
@@ -140,6 +151,45 @@ impl Tick {
     }
 }
 
+/// The filter's belief after a tick, sent right after that tick's [`Tick`]: how sure it
+/// is of the pose, the sensors' errors it has learned, and what it made of the tags.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FilterState {
+    /// The tick this belongs to (the `Tick`'s `tick`).
+    pub tick: u32,
+    /// The pose's covariance, in the core's units (see [`PoseCovariance`]).
+    #[serde(with = "PoseCovarianceDef")]
+    pub covariance: PoseCovariance,
+    /// The learned calibration.
+    #[serde(with = "CalibrationDef")]
+    pub calibration: Calibration,
+    /// Tag sightings used and refused since start, by cause.
+    #[serde(with = "TagCountersDef")]
+    pub tags: TagCounters,
+}
+
+impl FilterState {
+    /// The state for a step's report and the core's tag counters; `None` when the step
+    /// has no estimate (the robot does not fly the filter).
+    pub fn new(report: &StepReport, tags: TagCounters) -> Option<FilterState> {
+        report.estimate.map(|e| FilterState {
+            tick: report.counters.ticks,
+            covariance: e.covariance,
+            calibration: e.calibration,
+            tags,
+        })
+    }
+
+    /// The core's estimate this carries.
+    pub fn estimate(&self) -> Estimate {
+        Estimate {
+            covariance: self.covariance,
+            calibration: self.calibration,
+        }
+    }
+}
+
 /// A run of map cells, in cell units; see [the telemetry module](super) for the scale.
 #[derive(Clone, PartialEq, Eq, Debug, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -168,4 +218,6 @@ pub enum Message {
     MapRows(MapRows),
     /// Sensor fault counters (variant 3).
     Health(SensorHealth),
+    /// The filter's belief (variant 4).
+    Filter(FilterState),
 }

@@ -1,11 +1,11 @@
 //! The sending side: which messages go out on each tick, and framing one into bytes.
 
 use super::{
-    CellChunk, CellScale, FirmwareVersion, Hello, MapRows, Message, SensorHealth, Tick,
-    MAX_CHUNK_CELLS, MAX_MESSAGE_LEN, MAX_RAW_LEN, WIRE_VERSION,
+    CellChunk, CellScale, FilterState, FirmwareVersion, Hello, MapRows, Message, SensorHealth,
+    Tick, MAX_CHUNK_CELLS, MAX_MESSAGE_LEN, MAX_RAW_LEN, WIRE_VERSION,
 };
 use crate::framing::{cobs_encode, cobs_len, crc16};
-use slam_core::{GridMap, StepReport};
+use slam_core::{GridMap, Localiser, StepReport, TagCounters};
 
 /// When each kind of message goes out, in ticks.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -43,17 +43,24 @@ impl Default for Schedule {
 pub struct Streamer {
     schedule: Schedule,
     firmware: FirmwareVersion,
+    localiser: Localiser,
     ticks_sent: u32,
     next_column: u16,
     next_row: u16,
 }
 
 impl Streamer {
-    /// A stream starting with a `Hello` and the map's first row.
-    pub const fn new(schedule: Schedule, firmware: FirmwareVersion) -> Streamer {
+    /// A stream starting with a `Hello` and the map's first row, from a robot whose pose
+    /// `localiser` corrects.
+    pub const fn new(
+        schedule: Schedule,
+        firmware: FirmwareVersion,
+        localiser: Localiser,
+    ) -> Streamer {
         Streamer {
             schedule,
             firmware,
+            localiser,
             ticks_sent: 0,
             next_column: 0,
             next_row: 0,
@@ -61,11 +68,14 @@ impl Streamer {
     }
 
     /// Hands `send` this tick's messages, in order: a `Hello` when due, the `Tick`, the
-    /// map chunks, and `health` when due. `time_ms` is the tick's time since start.
+    /// [`FilterState`] when the report has an estimate (with `tags`, the core's
+    /// `tag_counters()`), the map chunks, and `health` when due. `time_ms` is the tick's
+    /// time since start.
     pub fn tick<const W: usize, const H: usize>(
         &mut self,
         time_ms: u32,
         report: &StepReport,
+        tags: TagCounters,
         map: &GridMap<W, H>,
         health: &SensorHealth,
         mut send: impl FnMut(&Message),
@@ -74,9 +84,16 @@ impl Streamer {
         self.ticks_sent = n.wrapping_add(1);
         let due = |every: u32| n.checked_rem(every) == Some(0);
         if n == 0 || due(self.schedule.hello_every_ticks) {
-            send(&Message::Hello(Hello::new(map, self.firmware)));
+            send(&Message::Hello(Hello::new(
+                map,
+                self.firmware,
+                self.localiser,
+            )));
         }
         send(&Message::Tick(Tick::new(time_ms, report)));
+        if let Some(state) = FilterState::new(report, tags) {
+            send(&Message::Filter(state));
+        }
         for _ in 0..self.schedule.map_chunks_per_tick {
             if let Some(rows) = self.next_map_rows(map) {
                 send(&Message::MapRows(rows));
