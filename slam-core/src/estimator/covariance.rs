@@ -73,9 +73,17 @@ impl Covariance {
         // A tick's Jacobian entries are a tick's displacement and turn: within 1.0 in
         // Q16 at any speed the robot drives, two 32-bit multiplies each.
         let next = if d.iter().all(|&(_, _, v)| v.unsigned_abs() <= 1 << 16) {
-            self.propagated(d, |p, v| i64::from(mul_q16_32(clamp32(p), v)))
+            self.propagated(
+                d,
+                |p, v| i64::from(mul_q16_32(p, v)),
+                |p, v| i64::from(mul_q16_32(clamp32(p), v)),
+            )
         } else {
-            self.propagated(d, |p, v| mul_shift(p, i64::from(v), 16))
+            self.propagated(
+                d,
+                |p, v| mul_shift(i64::from(p), i64::from(v), 16),
+                |p, v| mul_shift(p, i64::from(v), 16),
+            )
         };
         let mut scale = [0i64; N];
         let mut any = false;
@@ -112,13 +120,18 @@ impl Covariance {
     }
 
     /// The upper triangle of `P + D P + (D P)^T + D P D^T`, in 64 bits; `mul(p, v)` is
-    /// `p v / 2^16`.
-    fn propagated(&self, d: &[Entry], mul: impl Fn(i64, i32) -> i64) -> [[i64; N]; N] {
+    /// `p v / 2^16` for an entry of `P`, `mul_wide` the same for one of `D P`.
+    fn propagated(
+        &self,
+        d: &[Entry],
+        mul: impl Fn(i32, i32) -> i64,
+        mul_wide: impl Fn(i64, i32) -> i64,
+    ) -> [[i64; N]; N] {
         let mut dp = [[0i64; N]; N];
         for &(i, k, v) in d {
             let (i, k) = (i as usize, k as usize);
             for (out, p) in dp[i].iter_mut().zip(self.m[k]) {
-                *out += mul(i64::from(p), v);
+                *out += mul(p, v);
             }
         }
         let mut next = [[0i64; N]; N];
@@ -127,7 +140,7 @@ impl Covariance {
                 let mut v = i64::from(self.m[i][j]) + dp[i][j] + dp[j][i];
                 for &(r, k, q) in d {
                     if r as usize == j {
-                        v += mul(dp[i][k as usize], q);
+                        v += mul_wide(dp[i][k as usize], q);
                     }
                 }
                 next[i][j] = v;
@@ -137,13 +150,14 @@ impl Covariance {
     }
 
     /// `P h^T` for a sparse Q16 row `h` whose entries are within 1.0 (a direction's sine
-    /// and cosine): two 32-bit multiplies a product.
+    /// and cosine, which is all its callers pass): two 32-bit multiplies a product.
     #[inline(never)]
     pub fn times_unit_row(&self, h: &[(State, i32)]) -> [i64; N] {
         let mut a = [0i64; N];
         for (out, row) in a.iter_mut().zip(&self.m) {
             *out = h.iter().fold(0i64, |sum, &(j, v)| {
-                sum + i64::from(mul_q16_32(row[j as usize], v.clamp(-(1 << 16), 1 << 16)))
+                debug_assert!(v.unsigned_abs() <= 1 << 16);
+                sum + i64::from(mul_q16_32(row[j as usize], v))
             });
         }
         a

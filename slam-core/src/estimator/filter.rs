@@ -5,6 +5,7 @@ use super::covariance::{Covariance, Entry, N};
 use super::fixed::{mul_shift, square};
 use super::units::{self, FINE_SHIFT};
 use super::{Calibration, Estimate, PoseCovariance, State, TagCounters};
+use crate::angle::Angle;
 use crate::frame::GyroRate;
 use crate::odometry::{Motion, OdometryConfig};
 use crate::pose::Pose;
@@ -43,6 +44,9 @@ pub struct Estimator {
     pub(super) counters: TagCounters,
     /// The process noise's fractions of a unit not yet added, in 1/256 units.
     noise_carry: [u8; N],
+    /// The cosine of the camera's half view (Q16), worked out once: a tag's bearing
+    /// whose cosine is below it is outside the picture.
+    pub(super) view_cos: i32,
 }
 
 impl Estimator {
@@ -66,6 +70,7 @@ impl Estimator {
             calibration: [0; 3],
             counters: TagCounters::default(),
             noise_carry: [0; N],
+            view_cos: Angle::from_millidegrees(i64::from(c.half_view_mdeg)).cos(),
         };
         e.settle();
         e

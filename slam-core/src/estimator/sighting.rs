@@ -80,8 +80,7 @@ impl Estimator {
         let (sin_h, cos_h) = (then.heading.sin(), then.heading.cos());
         let sin_b = mul_q16_32(sin, cos_h) - mul_q16_32(cos, sin_h);
         let cos_b = mul_q16_32(cos, cos_h) + mul_q16_32(sin, sin_h);
-        let half_view = Angle::from_millidegrees(i64::from(cfg.half_view_mdeg));
-        if cfg.half_view_mdeg < 180_000 && cos_b < half_view.cos() {
+        if cfg.half_view_mdeg < 180_000 && cos_b < self.view_cos {
             return Err(TagRefusal::Behind);
         }
 
