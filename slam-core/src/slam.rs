@@ -94,21 +94,23 @@ impl SlamConfig {
     /// Where the seed's robot starts: (70, 50) cm on the mat, facing the far wall (+y).
     pub const SEED_START: Pose = Pose::from_mm_mdeg(700, 500, 0);
 
-    /// The seed's world: 5 cm cells with a 15 cm margin round a 2 m mat, tags 11 and 12 on
-    /// the far wall at (70, 195) and (150, 195) cm, and the seed's sensors.
+    /// The seed's tags: 11 and 12 on the far wall at (70, 195) and (150, 195) cm.
+    pub const SEED_TAGS: [KnownTag; 2] = [
+        KnownTag {
+            id: 11,
+            x_mm: 700,
+            y_mm: 1950,
+        },
+        KnownTag {
+            id: 12,
+            x_mm: 1500,
+            y_mm: 1950,
+        },
+    ];
+
+    /// The seed's world: 5 cm cells with a 15 cm margin round a 2 m mat, the seed's tags
+    /// ([`SlamConfig::SEED_TAGS`]) and the seed's sensors.
     pub fn seed_mat() -> SlamConfig {
-        const TAGS: [KnownTag; 2] = [
-            KnownTag {
-                id: 11,
-                x_mm: 700,
-                y_mm: 1950,
-            },
-            KnownTag {
-                id: 12,
-                x_mm: 1500,
-                y_mm: 1950,
-            },
-        ];
         SlamConfig {
             geometry: GridGeometry {
                 cell_mm: 50,
@@ -119,7 +121,7 @@ impl SlamConfig {
             depth: DepthConfig::SEED,
             odometry: OdometryConfig::NOMINAL,
             camera: CameraConfig::SEED,
-            tags: TagMap::new(&TAGS).unwrap_or_default(),
+            tags: TagMap::new(&Self::SEED_TAGS).unwrap_or_default(),
             localiser: Localiser::TwoTagFix,
             fix: FixConfig::SEED,
             estimator: EstimatorConfig::SEED,

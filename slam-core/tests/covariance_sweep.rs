@@ -7,7 +7,6 @@ mod simulated;
 use reference::filter::{self as rf, FPose};
 use reference::Lcg;
 use simulated::{Robot, Sensors};
-use slam_core::tagfix::KnownTag;
 use slam_core::{
     FlowDelta, GyroRate, Localiser, Pose, SensorFrame, Slam, SlamConfig, TagDetection, TagMap,
     MAX_TAGS,
@@ -15,19 +14,6 @@ use slam_core::{
 
 /// Ticks in ten minutes at 10 Hz.
 const TICKS: usize = 6000;
-
-const TAGS: [KnownTag; 2] = [
-    KnownTag {
-        id: 11,
-        x_mm: 700,
-        y_mm: 1950,
-    },
-    KnownTag {
-        id: 12,
-        x_mm: 1500,
-        y_mm: 1950,
-    },
-];
 
 /// A frame from the robot, spoiled: readings gone stale, detections that are garbage
 /// (unknown ids, wild ranges and columns, known ids read from nowhere near their place),
@@ -124,7 +110,7 @@ fn covariance_stays_a_covariance_with_wild_odometry() {
 fn sweep(wild: bool) {
     let config = SlamConfig {
         localiser: Localiser::Filter,
-        tags: TagMap::new(&TAGS).unwrap(),
+        tags: TagMap::new(&SlamConfig::SEED_TAGS).unwrap(),
         ..SlamConfig::seed_mat()
     };
     let floor: Vec<i64> = rf::floor()
@@ -136,7 +122,7 @@ fn sweep(wild: bool) {
     for seed in [1u64, 2, 3, 4] {
         let start = SlamConfig::SEED_START;
         let mut slam: Slam<46, 46> = Slam::new(config, start).unwrap();
-        let places = TAGS
+        let places = SlamConfig::SEED_TAGS
             .iter()
             .map(|t| (t.id, t.x_mm as f64, t.y_mm as f64))
             .collect();

@@ -12,16 +12,8 @@ use slam_core::{
     TagCounters, TagDetection, TagMap,
 };
 
-const T11: KnownTag = KnownTag {
-    id: 11,
-    x_mm: 700,
-    y_mm: 1950,
-};
-const T12: KnownTag = KnownTag {
-    id: 12,
-    x_mm: 1500,
-    y_mm: 1950,
-};
+const T11: KnownTag = SlamConfig::SEED_TAGS[0];
+const T12: KnownTag = SlamConfig::SEED_TAGS[1];
 
 type SeedSlam = Slam<46, 46>;
 

@@ -335,20 +335,6 @@ proptest! {
     }
 }
 
-/// The seed mat's two tags, where they are listed and where they are.
-const SEED_TAGS: [KnownTag; 2] = [
-    KnownTag {
-        id: 11,
-        x_mm: 700,
-        y_mm: 1950,
-    },
-    KnownTag {
-        id: 12,
-        x_mm: 1500,
-        y_mm: 1950,
-    },
-];
-
 fn true_places(tags: &[KnownTag]) -> Vec<(u16, f64, f64)> {
     tags.iter()
         .map(|t| (t.id, t.x_mm as f64, t.y_mm as f64))
@@ -379,7 +365,7 @@ fn run_beside_reference(
     sensors: Sensors,
 ) -> Result<Apart, TestCaseError> {
     let start = SlamConfig::SEED_START;
-    let config = slam_config(estimator, &SEED_TAGS);
+    let config = slam_config(estimator, &SlamConfig::SEED_TAGS);
     let mut slam: Slam<46, 46> = Slam::new(config, start).unwrap();
     let mut reference = RefFilter::new(
         estimator,
@@ -387,7 +373,12 @@ fn run_beside_reference(
         config.tags,
         fpose(&start),
     );
-    let mut robot = Robot::new(fpose(&start), sensors, true_places(&SEED_TAGS), seed);
+    let mut robot = Robot::new(
+        fpose(&start),
+        sensors,
+        true_places(&SlamConfig::SEED_TAGS),
+        seed,
+    );
     let mut pose_block = absolute(4.0);
     for a in pose_block.iter_mut().skip(3) {
         *a = f64::INFINITY;

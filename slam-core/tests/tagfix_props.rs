@@ -7,16 +7,8 @@ use reference::{bits_to_rad, Seen};
 use slam_core::tagfix::{self, CameraConfig, FixConfig, FixRejection, KnownTag};
 use slam_core::{Angle, FixOutcome, Pose, SensorFrame, Slam, SlamConfig, TagDetection};
 
-const T11: KnownTag = KnownTag {
-    id: 11,
-    x_mm: 700,
-    y_mm: 1950,
-};
-const T12: KnownTag = KnownTag {
-    id: 12,
-    x_mm: 1500,
-    y_mm: 1950,
-};
+const T11: KnownTag = SlamConfig::SEED_TAGS[0];
+const T12: KnownTag = SlamConfig::SEED_TAGS[1];
 
 fn config() -> ProptestConfig {
     ProptestConfig {
