@@ -46,13 +46,22 @@ pub fn mul_shift(a: i64, b: i64, shift: u32) -> i64 {
 #[cold]
 #[inline(never)]
 fn wide_mul_shift(a: i64, b: i64, shift: u32) -> i64 {
-    let p = i128::from(a) * i128::from(b);
-    let p = if shift == 0 {
-        p
+    round_shift_wide(
+        i128::from(a) * i128::from(b),
+        i32::try_from(shift).unwrap_or(i32::MAX),
+    )
+}
+
+/// `p / 2^shift` rounded to nearest (a left shift for a shift below zero), saturating:
+/// the slow paths' common last step.
+fn round_shift_wide(p: i128, shift: i32) -> i64 {
+    if shift <= 0 {
+        saturate(p.saturating_mul(1i128 << (-shift).min(64)))
+    } else if shift >= 127 {
+        0
     } else {
-        (p + (1i128 << (shift.min(126) - 1))) >> shift.min(126)
-    };
-    saturate(p)
+        saturate((p + (1i128 << (shift - 1))) >> shift)
+    }
 }
 
 /// `x * x`, saturating.
@@ -126,14 +135,7 @@ impl Reciprocal {
     #[cold]
     #[inline(never)]
     fn times_wide(&self, x: i64, shift: i32) -> i64 {
-        let p = i128::from(x) * i128::from(self.inv);
-        if shift <= 0 {
-            saturate(p.saturating_mul(1i128 << (-shift).min(64)))
-        } else if shift >= 127 {
-            0
-        } else {
-            saturate((p + (1i128 << (shift - 1))) >> shift)
-        }
+        round_shift_wide(i128::from(x) * i128::from(self.inv), shift)
     }
 }
 
