@@ -201,6 +201,40 @@ fn sighting(c: &Case, p: &Matrix, config: &EstimatorConfig) -> (KnownTag, TagDet
     (tag, detection)
 }
 
+/// A case set up for both filters: the integer filter after `ticks` from the case's pose,
+/// its covariance in the reference's units, and the case's sighting as each takes it.
+struct SetUp {
+    estimator: Estimator,
+    prior: Matrix,
+    tag: KnownTag,
+    detection: TagDetection,
+    then: FPose,
+    place: (f64, f64),
+    reading: Reading,
+}
+
+fn set_up(ticks: &[SensorFrame], c: &Case) -> SetUp {
+    let config = slam_config(EXACT, &[]);
+    let mut slam: Slam<46, 46> = Slam::new(config, c.then).unwrap();
+    for frame in ticks {
+        slam.step(frame);
+    }
+    let prior = rf::from_integer(slam.estimator().covariance().rows());
+    let (tag, detection) = sighting(c, &prior, &EXACT);
+    SetUp {
+        estimator: slam.estimator().clone(),
+        prior,
+        tag,
+        detection,
+        then: fpose(&c.then),
+        place: (tag.x_mm as f64, tag.y_mm as f64),
+        reading: Reading {
+            range_mm: detection.distance_mm as f64,
+            cx_px: detection.cx_centipx as f64 / 100.0,
+        },
+    }
+}
+
 /// The gate's threshold, 13.8 (`gate_chi2_q8` / 256).
 fn gate(config: &EstimatorConfig) -> f64 {
     config.gate_chi2_q8 as f64 / 256.0
@@ -233,21 +267,8 @@ proptest! {
         ticks in proptest::collection::vec(tick(), 0..60),
         c in case(),
     ) {
-        let config = slam_config(EXACT, &[]);
-        let mut slam: Slam<46, 46> = Slam::new(config, c.then).unwrap();
-        for frame in &ticks {
-            slam.step(frame);
-        }
-        let mut estimator: Estimator = slam.estimator().clone();
-        let mut p = rf::from_integer(estimator.covariance().rows());
-        let prior = p;
-        let (tag, detection) = sighting(&c, &p, &EXACT);
-        let then = fpose(&c.then);
-        let place = (tag.x_mm as f64, tag.y_mm as f64);
-        let reading = Reading {
-            range_mm: detection.distance_mm as f64,
-            cx_px: detection.cx_centipx as f64 / 100.0,
-        };
+        let SetUp { mut estimator, prior, tag, detection, then, place, reading } = set_up(&ticks, &c);
+        let mut p = prior;
         let chi2 = rf::chi2(&p, &EXACT, &then, place, &reading);
         prop_assume!(chi2.is_ok());
         let chi2 = chi2.unwrap_or_default();
@@ -301,19 +322,7 @@ proptest! {
         ticks in proptest::collection::vec(tick(), 0..60),
         c in case(),
     ) {
-        let config = slam_config(EXACT, &[]);
-        let mut slam: Slam<46, 46> = Slam::new(config, c.then).unwrap();
-        for frame in &ticks {
-            slam.step(frame);
-        }
-        let prior = rf::from_integer(slam.estimator().covariance().rows());
-        let (tag, detection) = sighting(&c, &prior, &EXACT);
-        let then = fpose(&c.then);
-        let place = (tag.x_mm as f64, tag.y_mm as f64);
-        let reading = Reading {
-            range_mm: detection.distance_mm as f64,
-            cx_px: detection.cx_centipx as f64 / 100.0,
-        };
+        let SetUp { prior, then, place, reading, .. } = set_up(&ticks, &c);
         let joint = rf::joint_update(&prior, &EXACT, &then, place, &reading);
         prop_assume!(joint.is_ok());
         let (correction, q) = joint.unwrap_or_default();
