@@ -4,7 +4,7 @@
 mod common;
 
 use common::{host_sim, seed_path, SCORED_FIGURES};
-use host_sim::run::{run, PoseMode};
+use host_sim::run::{run, PoseMode, RunOutput};
 use host_sim::telemetry::decode_bytes;
 use host_sim::Scenario;
 use std::path::{Path, PathBuf};
@@ -255,9 +255,13 @@ fn a_late_viewer_waits_for_hello_and_refuses_chunks_off_the_grid() {
     assert!(record.ticks.is_empty());
 }
 
-/// The run's own truth, one line per tick as the emulator's harness writes it.
-fn truth_lines(record: &host_sim::RunRecord) -> Vec<String> {
-    record
+/// The seed scenario run in `mode`, and its own truth written to `dir/truth.jsonl`, one
+/// line per tick as the emulator's harness writes it (the lines are returned too).
+fn seed_run_with_truth(dir: &Path, mode: PoseMode) -> (RunOutput, PathBuf, Vec<String>) {
+    let scenario = Scenario::load(&seed_path()).expect("seed scenario loads");
+    let output = run(&scenario, mode, scenario.seed).expect("seed runs");
+    let lines: Vec<String> = output
+        .record
         .ticks
         .iter()
         .map(|t| {
@@ -269,7 +273,10 @@ fn truth_lines(record: &host_sim::RunRecord) -> Vec<String> {
             })
             .to_string()
         })
-        .collect()
+        .collect();
+    let truth = dir.join("truth.jsonl");
+    std::fs::write(&truth, lines.join("\n") + "\n").ok();
+    (output, truth, lines)
 }
 
 fn view_json(args: &[&str]) -> serde_json::Value {
@@ -284,11 +291,7 @@ fn view_with_the_truth_scores_a_run_as_run_does() {
     let dir = scratch("truth");
     recorded_stream(&dir);
     let stream = dir.join("seed.bin");
-    let scenario = Scenario::load(&seed_path()).expect("seed scenario loads");
-    let output = run(&scenario, PoseMode::Tags, scenario.seed).expect("seed runs");
-    let lines = truth_lines(&output.record);
-    let truth = dir.join("truth.jsonl");
-    std::fs::write(&truth, lines.join("\n") + "\n").ok();
+    let (output, truth, lines) = seed_run_with_truth(&dir, PoseMode::Tags);
 
     let v = view_json(&[
         "view",
@@ -416,10 +419,7 @@ fn the_filters_figures_survive_the_telemetry() {
     ]);
     assert_eq!(out.status.code(), Some(0));
     let sim: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_default();
-    let scenario = Scenario::load(&seed_path()).expect("seed scenario loads");
-    let output = run(&scenario, PoseMode::Slam, scenario.seed).expect("seed runs");
-    let truth = dir.join("truth.jsonl");
-    std::fs::write(&truth, truth_lines(&output.record).join("\n") + "\n").ok();
+    let (_, truth, _) = seed_run_with_truth(&dir, PoseMode::Slam);
     let v = view_json(&[
         "view",
         path_str(&stream),
