@@ -13,24 +13,30 @@ use crate::pose::Pose;
 /// The covariance's floor: no variance ever reaches zero (a filter sure of anything
 /// stops listening). Position 1/8 mm, heading 6e-5 rad, calibration one unit.
 const FLOOR: [i32; N] = [4, 4, 16, 1, 1, 1];
+/// Calibration beyond which the sensors are broken, not miscalibrated, in covariance
+/// units: gyro scale 10 %, gyro bias 5 deg/s, flow scale 30 %. The learned values are held
+/// within them, and their standard deviations are no wider.
+const GYRO_SCALE_MAX: i32 = 6_554;
+const GYRO_BIAS_MAX: i32 = 5_720;
+const FLOW_SCALE_MAX: i32 = 19_661;
+
 /// The covariance's ceiling, as standard deviations: position 2.5 m, heading 34 degrees
-/// (past either the robot is lost, and a linear filter with it), gyro scale 10 %, gyro
-/// bias 5 deg/s, flow scale 30 %. Each fits the matrix's 32 bits.
+/// (past either the robot is lost, and a linear filter with it), and the calibration's
+/// limits. Each fits the matrix's 32 bits.
 const CEILING: [i32; N] = [
     40_000 * 40_000,
     40_000 * 40_000,
     39_000 * 39_000,
-    6_554 * 6_554,
-    5_720 * 5_720,
-    19_661 * 19_661,
+    GYRO_SCALE_MAX * GYRO_SCALE_MAX,
+    GYRO_BIAS_MAX * GYRO_BIAS_MAX,
+    FLOW_SCALE_MAX * FLOW_SCALE_MAX,
 ];
 
-/// Learned calibration beyond which the sensors are broken, not miscalibrated: gyro
-/// scale 10 %, gyro bias 5 deg/s, flow scale 30 %, in fine units.
+/// The calibration's limits in fine units.
 const CALIBRATION_LIMIT: [i64; 3] = [
-    6_554 << FINE_SHIFT,
-    5_720 << FINE_SHIFT,
-    19_661 << FINE_SHIFT,
+    (GYRO_SCALE_MAX as i64) << FINE_SHIFT,
+    (GYRO_BIAS_MAX as i64) << FINE_SHIFT,
+    (FLOW_SCALE_MAX as i64) << FINE_SHIFT,
 ];
 
 /// The filter: covariance, learned calibration and counters (the pose itself is the
@@ -179,7 +185,7 @@ impl Estimator {
             *q = total >> 8;
         }
         self.p.propagate(d.get(..n).unwrap_or(&[]), &q, &CEILING);
-        self.p.bound_variances(&FLOOR, &CEILING);
+        self.bound_variances();
     }
 
     /// The noise one tick adds, in covariance units times 2^8: the standard deviations
@@ -189,9 +195,9 @@ impl Estimator {
         let c = &self.config;
         // A standard deviation in 1/256 units squared, in 1/256 units of variance.
         let var = |sigma_q8: i64| square(sigma_q8) >> 8;
-        let position_q8 = |um: u32| mul_shift(i64::from(um), 1_073_742, 18);
-        let heading_q8 = |mdeg: u32| mul_shift(i64::from(mdeg), 74_961, 8);
-        let scale_q8 = |ppm: u32| mul_shift(i64::from(ppm), 4295, 8);
+        let position_q8 = |um: u32| units::position_from_um_frac(i64::from(um), 8);
+        let heading_q8 = |mdeg: u32| units::heading_from_mdeg_frac(i64::from(mdeg), 8);
+        let scale_q8 = |ppm: u32| units::scale_from_ppm_frac(i64::from(ppm), 8);
         let distance = crate::pose::hypot(dx, dy).min(i64::MAX as u64) as i64;
         let turn = turn.abs();
         let position = if flow {

@@ -15,7 +15,12 @@ pub const FINE_SHIFT: u32 = 8;
 
 /// Micrometres to position units (x 0.016, by a Q26 multiply: no division on the M0+).
 pub fn position_from_um(um: i64) -> i64 {
-    mul_shift(um, 1_073_742, 26)
+    position_from_um_frac(um, 0)
+}
+
+/// [`position_from_um`] with `frac` fractional bits (at most 26).
+pub fn position_from_um_frac(um: i64, frac: u32) -> i64 {
+    mul_shift(um, 1_073_742, 26 - frac)
 }
 
 /// A correction in fine position units to micrometres (x 62.5 / 256 = x 125 / 512).
@@ -35,12 +40,22 @@ pub fn bits_from_fine_heading(fine: i64) -> i64 {
 
 /// Millidegrees to heading units (x pi / 180000 x 2^16, Q16).
 pub fn heading_from_mdeg(mdeg: i64) -> i64 {
-    mul_shift(mdeg, 74_961, 16)
+    heading_from_mdeg_frac(mdeg, 0)
+}
+
+/// [`heading_from_mdeg`] with `frac` fractional bits (at most 16).
+pub fn heading_from_mdeg_frac(mdeg: i64, frac: u32) -> i64 {
+    mul_shift(mdeg, 74_961, 16 - frac)
 }
 
 /// Parts per million to scale units (x 2^16 / 1e6, Q16).
 pub fn scale_from_ppm(ppm: i64) -> i64 {
-    mul_shift(ppm, 4295, 16)
+    scale_from_ppm_frac(ppm, 0)
+}
+
+/// [`scale_from_ppm`] with `frac` fractional bits (at most 16).
+pub fn scale_from_ppm_frac(ppm: i64, frac: u32) -> i64 {
+    mul_shift(ppm, 4295, 16 - frac)
 }
 
 /// A fine scale (2^-24) to parts per million (x 1e6 / 2^24 = x 15625 / 2^18).
