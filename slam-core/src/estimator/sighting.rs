@@ -14,6 +14,13 @@ use crate::tagfix::{CameraConfig, KnownTag};
 /// (whose entries grow as one over the range).
 const MIN_JACOBIAN_RANGE_MM: i64 = 50;
 
+/// `h a` for a sparse Q16 row `h`.
+fn dot(h: &[(State, i32)], a: &[i64; N]) -> i64 {
+    h.iter()
+        .map(|&(j, v)| mul_shift(a[j as usize], i64::from(v), 16))
+        .sum()
+}
+
 /// `nu^2 / s` in Q8, saturating.
 fn normalised_square_q8(nu: i64, s: &Reciprocal) -> i64 {
     if fits_i32(nu) {
@@ -112,11 +119,9 @@ impl Estimator {
         let per_range = Reciprocal::of(range_mm).ok_or(TagRefusal::Gate)?;
         let h_range = [(State::X, -sin), (State::Y, -cos)];
         let h_across = [(State::X, -cos), (State::Y, sin)];
-        let unit = |v: i64, t: i32| mul_shift(v, i64::from(t), 16);
-        let range_of = |a: &[i64; N]| unit(a[0], -sin) + unit(a[1], -cos);
-        let bearing_of = |a: &[i64; N]| {
-            per_range.times(unit(a[0], -cos) + unit(a[1], sin), 12) - a[State::Heading as usize]
-        };
+        let range_of = |a: &[i64; N]| dot(&h_range, a);
+        let bearing_of =
+            |a: &[i64; N]| per_range.times(dot(&h_across, a), 12) - a[State::Heading as usize];
 
         // Range noise in position units: a constant part and a per-mille part (Q16 of
         // 1/1000 is 65.536).

@@ -78,8 +78,6 @@ pub fn seconds_q16_from_us(us: u32) -> i64 {
     mul_shift(i64::from(us), 4295, 16)
 }
 
-pub use super::fixed::square;
-
 #[cfg(test)]
 mod tests {
     use super::*;
