@@ -17,6 +17,8 @@
 //! | `robot` `max_wheel_speed_mm_s`, `wheel_base_mm` | the differential drive, when the firmware commands the motors |
 //! | `[robot.slip]` `spells_per_min`, `spell_s`, `speed_loss`, `skid_mm_per_turn` (optional table: no slip when absent) | wheel slip: spells of `spell_s` at random moments in which the robot moves and turns `speed_loss` (0 to 1) slower than commanded; and while turning, the centre slides `skid_mm_per_turn` on average per full turn, each turn in a direction and by an amount (0 to twice the average) of its own |
 //! | `sensors.tof` `fov_deg`, `max_range_mm`, `noise_mm`, `dropout` | 8 beams at the centres of 8 equal zones; zones with no return |
+//! | `sensors.tof` `noise_per_m_mm` (optional, 0 when absent) | range noise that grows with distance: this much more standard deviation per metre |
+//! | `sensors.tof` `mixed_edge` (optional, 0 when absent) | the chance that a zone spanning a step in depth (a box's edge before a wall, over 100 mm apart) reads a range between the two surfaces |
 //! | `sensors.flow` `um_per_count`, `scale_error`, `noise_counts`, `quality` | flow counts at 100 Hz; the firmware's calibration, the true scale error, noise per reading, surface quality |
 //! | `sensors.flow` `offset_mm` (optional, `[0, 0]` when absent) | where the sensor sits from the turning axis, `[forward, right]`: off the axis a turn on the spot shows as flow |
 //! | `sensors.gyro` `bias_dps`, `scale_error`, `noise_dps` | yaw rate at 200 Hz: residual bias, scale error, noise per sample |

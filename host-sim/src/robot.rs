@@ -69,6 +69,13 @@ impl Streams {
 }
 
 /// A standard normal draw scaled by `sigma` (0 draws nothing).
+/// How far apart in range, millimetres, two surfaces under one depth zone must be for the
+/// zone to see two targets.
+const MIXED_EDGE_GAP_MM: f64 = 100.0;
+
+/// Lines cast across a depth zone to find a step in depth under it.
+const MIXED_EDGE_LINES: usize = 5;
+
 fn noise(rng: &mut ChaCha8Rng, sigma: f64) -> f64 {
     if sigma > 0.0 {
         Normal::new(0.0, sigma).map_or(0.0, |n| n.sample(rng))
@@ -295,15 +302,19 @@ impl Robot {
 
     /// The depth sensor's 8 beams from the true pose, in millimetres.
     pub fn read_depth(&mut self) -> DepthScan {
-        let t = &self.scenario.sensors.tof;
+        let t = self.scenario.sensors.tof.clone();
         let origin = Vec2::new(self.truth.x_mm, self.truth.y_mm);
         let mut scan = DepthScan::default();
         for (i, slot) in scan.ranges_mm.iter_mut().enumerate() {
             let zone = t.fov_deg / BEAMS as f64;
             let angle = -t.fov_deg / 2.0 + zone * (i as f64 + 0.5);
             let dir = Vec2::heading(self.truth.heading_deg + angle);
-            let hit = self.world.ray(origin, dir);
-            let noise = noise(&mut self.rng.tof, t.noise_mm);
+            let mut hit = self.world.ray(origin, dir);
+            if t.mixed_edge > 0.0 {
+                hit = self.mixed_edge(origin, self.truth.heading_deg + angle, zone, hit);
+            }
+            let sigma = t.noise_mm + t.noise_per_m_mm * hit.unwrap_or(0.0) / 1000.0;
+            let noise = noise(&mut self.rng.tof, sigma);
             let dropped = rand::Rng::gen_bool(&mut self.rng.tof, t.dropout);
             *slot = match hit {
                 Some(d) if d <= t.max_range_mm && !dropped => {
@@ -313,6 +324,40 @@ impl Robot {
             };
         }
         scan
+    }
+
+    /// A zone `zone_deg` wide centred on `centre_deg` that spans a step in depth (two
+    /// neighbouring lines across it land on different surfaces more than
+    /// [`MIXED_EDGE_GAP_MM`] apart in range: a box's edge before a wall) reports, with the
+    /// scenario's chance, a range drawn between the nearest and furthest surface; otherwise
+    /// `centre`. A single slanted wall or a room's inside corner is no step.
+    fn mixed_edge(
+        &mut self,
+        origin: Vec2,
+        centre_deg: f64,
+        zone_deg: f64,
+        centre: Option<f64>,
+    ) -> Option<f64> {
+        let mut hits = [None; MIXED_EDGE_LINES];
+        for (k, hit) in hits.iter_mut().enumerate() {
+            let across = k as f64 / (MIXED_EDGE_LINES - 1) as f64 - 0.5;
+            *hit = self
+                .world
+                .ray_hit(origin, Vec2::heading(centre_deg + across * zone_deg));
+        }
+        let step = hits.windows(2).any(|pair| match (pair[0], pair[1]) {
+            (Some((a, i)), Some((b, j))) => i != j && (a - b).abs() > MIXED_EDGE_GAP_MM,
+            _ => false,
+        });
+        let ranges = hits.iter().flatten().map(|&(d, _)| d);
+        let near = ranges.clone().fold(f64::INFINITY, f64::min);
+        let far = ranges.fold(0.0, f64::max);
+        let chance = self.scenario.sensors.tof.mixed_edge;
+        if step && near < far && rand::Rng::gen_bool(&mut self.rng.tof, chance) {
+            Some(rand::Rng::gen_range(&mut self.rng.tof, near..far))
+        } else {
+            centre
+        }
     }
 
     /// The tags the camera reads from the true pose of the scenario's latency ago.
@@ -660,5 +705,45 @@ mod tests {
         assert_eq!(seen, now.read_tags());
         now.advance(0.1, TURN_AND_DRIVE);
         assert_ne!(slow.read_tags(), now.read_tags());
+    }
+
+    /// The seed's start facing the far wall 1.5 m away, with the depth sensor's noise and
+    /// dropouts off and every step in depth read as mixed.
+    fn mixing(walls: &[[[f64; 2]; 2]]) -> Robot {
+        let mut s = scenario(0.0);
+        s.world.walls.extend_from_slice(walls);
+        s.world.tags.clear();
+        s.sensors.tof.noise_mm = 0.0;
+        s.sensors.tof.dropout = 0.0;
+        s.sensors.tof.mixed_edge = 1.0;
+        Robot::new(&s, 1)
+    }
+
+    #[test]
+    fn a_zone_across_a_step_in_depth_reads_between_the_two_surfaces() {
+        // A card 50 cm ahead whose right end is 2.3 degrees right of the nose: zone 4
+        // (0 to 5.6 degrees right) sees the card on its left edge and the far wall on
+        // its right; zone 3 (5.6 to 0 degrees left) sees only the card.
+        let mut robot = mixing(&[[[500.0, 1000.0], [720.0, 1000.0]]]);
+        let scan = robot.read_depth();
+        let r = |i: usize| scan.ranges_mm[i].map_or(0, u32::from);
+        assert!(
+            r(4) > 501 && r(4) < 1501,
+            "zone 4 between card and wall: {scan:?}"
+        );
+        assert!((499..=502).contains(&r(3)), "zone 3 on the card: {scan:?}");
+    }
+
+    #[test]
+    fn a_slanted_wall_or_an_inside_corner_is_no_step() {
+        let mut plain = mixing(&[]);
+        plain.scenario.sensors.tof.mixed_edge = 0.0;
+        let mut mixed = mixing(&[]);
+        for turn in [0.0, 30.0, 60.0, 45.0] {
+            // Looking at the far wall, then slanted at it, then into the far-right corner.
+            plain.truth.heading_deg = turn;
+            mixed.truth.heading_deg = turn;
+            assert_eq!(plain.read_depth(), mixed.read_depth(), "heading {turn}");
+        }
     }
 }

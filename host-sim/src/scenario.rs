@@ -14,12 +14,15 @@ use std::path::Path;
 /// The scenario files shipped in `host-sim/scenarios/`, by file name: what a test that
 /// holds "every shipped scenario" to something goes through (a test checks that the list
 /// and the directory agree).
-pub const SHIPPED: [&str; 5] = [
+pub const SHIPPED: [&str; 8] = [
     "seed-mat.toml",
     "seed-mat-rough.toml",
     "one-tag.toml",
     "two-wall-room.toml",
     "room-10m.toml",
+    "seed-mat-no-tags.toml",
+    "tag-free-room.toml",
+    "corridor.toml",
 ];
 
 /// A wall segment, `[[x0, y0], [x1, y1]]` in millimetres.
@@ -154,6 +157,15 @@ pub struct Tof {
     pub noise_mm: f64,
     /// Chance that a zone has no valid return in a frame, 0 to 1.
     pub dropout: f64,
+    /// Range noise that grows with distance: extra standard deviation per metre of range,
+    /// millimetres. Optional: 0, the same noise at every range.
+    #[serde(default)]
+    pub noise_per_m_mm: f64,
+    /// Chance, 0 to 1, that a zone whose edges fall on two surfaces at different depths
+    /// (a corner's edge, a box in front of a wall) reports a range between the two rather
+    /// than its centre's. Optional: 0, a zone reads along its centre line.
+    #[serde(default)]
+    pub mixed_edge: f64,
 }
 
 /// Optical flow, looking at the floor under the robot.
@@ -491,6 +503,13 @@ impl Scenario {
         c.positive("sensors.tof.max_range_mm", s.tof.max_range_mm, 65_000.0);
         c.range("sensors.tof.noise_mm", s.tof.noise_mm, 0.0, 1000.0);
         c.range("sensors.tof.dropout", s.tof.dropout, 0.0, 1.0);
+        c.range(
+            "sensors.tof.noise_per_m_mm",
+            s.tof.noise_per_m_mm,
+            0.0,
+            1000.0,
+        );
+        c.range("sensors.tof.mixed_edge", s.tof.mixed_edge, 0.0, 1.0);
         c.at_least(
             "sensors.flow.um_per_count",
             s.flow.um_per_count,

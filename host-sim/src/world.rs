@@ -110,10 +110,19 @@ impl World {
 
     /// Distance along a ray from `origin` in unit direction `dir` to the first thing it hits.
     pub fn ray(&self, origin: Vec2, dir: Vec2) -> Option<f64> {
+        self.ray_hit(origin, dir).map(|(d, _)| d)
+    }
+
+    /// Like [`World::ray`], with the index of the segment hit.
+    pub fn ray_hit(&self, origin: Vec2, dir: Vec2) -> Option<(f64, usize)> {
         self.walls
             .iter()
-            .filter_map(|w| ray_segment(origin, dir, w.a, w.b))
-            .fold(None, |best, d| Some(best.map_or(d, |b: f64| b.min(d))))
+            .enumerate()
+            .filter_map(|(i, w)| Some((ray_segment(origin, dir, w.a, w.b)?, i)))
+            .fold(None, |best, hit| match best {
+                Some(b) if b.0 <= hit.0 => Some(b),
+                _ => Some(hit),
+            })
     }
 
     /// Whether the straight line from `from` to tag `id`'s centre crosses nothing but that

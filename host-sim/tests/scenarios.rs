@@ -141,6 +141,91 @@ fn the_two_wall_room_has_its_tags_come_and_go() {
     );
 }
 
+/// The true path of a run of `scenario` on seed 1, one point a tick, millimetres.
+fn true_path(scenario: &Scenario) -> Vec<(f64, f64, f64)> {
+    match run(scenario, PoseMode::Truth, 1) {
+        Ok(out) => out
+            .record
+            .ticks
+            .iter()
+            .map(|t| (t.t_s, t.truth_mm.0, t.truth_mm.1))
+            .collect(),
+        Err(e) => panic!("{}: {e}", scenario.name),
+    }
+}
+
+/// The extent of a scenario's walls, `(x, y)` millimetres.
+fn extent(scenario: &Scenario) -> (f64, f64) {
+    let points = || scenario.world.walls.iter().flatten();
+    let span = |axis: usize| {
+        let lo = points().map(|p| p[axis]).fold(f64::INFINITY, f64::min);
+        let hi = points().map(|p| p[axis]).fold(f64::NEG_INFINITY, f64::max);
+        hi - lo
+    };
+    (span(0), span(1))
+}
+
+#[test]
+fn the_seed_mat_without_tags_is_the_seed_mat_without_its_tags() {
+    let seed = load("seed-mat.toml");
+    let mut bare = load("seed-mat-no-tags.toml");
+    assert!(bare.world.tags.is_empty());
+    bare.name = seed.name.clone();
+    bare.world.tags = seed.world.tags.clone();
+    assert_eq!(bare, seed, "only the tags differ");
+}
+
+#[test]
+fn the_tag_free_room_is_a_room_with_inner_walls_driven_round_twice() {
+    let s = load("tag-free-room.toml");
+    assert!(s.world.tags.is_empty());
+    let (w, h) = extent(&s);
+    assert!(w >= 3000.0 && h >= 3000.0, "at least 3 m x 3 m: {w} x {h}");
+    assert!(s.world.walls.len() > 4, "inner walls or boxes");
+    let path = true_path(&s);
+    let duration = path.last().map_or(0.0, |p| p.0);
+    assert!(duration >= 180.0, "at least 3 minutes: {duration} s");
+    // The same places twice: most of the second half of the run passes within 10 cm of
+    // where the robot was in the first half.
+    let (first, second) = path.split_at(path.len() / 2);
+    let revisits = second
+        .iter()
+        .filter(|p| first.iter().any(|q| (p.1 - q.1).hypot(p.2 - q.2) < 100.0))
+        .count();
+    assert!(
+        revisits * 10 >= second.len() * 8,
+        "{revisits} of {}",
+        second.len()
+    );
+    // Nothing but the depth sensor's own failings puts a cell out of place.
+    let truth = figures(&s, PoseMode::Truth);
+    assert!(
+        truth.out_of_place * 100 <= truth.occupied,
+        "with the true pose, at most 1 % out of place: {truth:?}"
+    );
+}
+
+#[test]
+fn the_corridor_has_a_stretch_where_only_the_side_walls_are_seen() {
+    let s = load("corridor.toml");
+    assert!(s.world.tags.is_empty());
+    let (long, wide) = extent(&s);
+    assert!(
+        wide <= 1500.0 && long > wide,
+        "a corridor along x: {long} x {wide} mm"
+    );
+    // Somewhere on the route both end walls are beyond the sensor's range, so nothing
+    // says how far along the corridor the robot is.
+    let reach = s.sensors.tof.max_range_mm;
+    let blind = true_path(&s)
+        .iter()
+        .filter(|&&(_, x, _)| x > reach && long - x > reach)
+        .count();
+    assert!(blind >= 100, "{blind} ticks with no end wall in range");
+    let truth = figures(&s, PoseMode::Truth);
+    assert_eq!(truth.out_of_place, 0, "{truth:?}");
+}
+
 #[test]
 fn the_rough_mat_is_the_seed_mat_with_the_failings() {
     let seed = load("seed-mat.toml");
@@ -210,6 +295,16 @@ fn bad_failings_are_refused_by_name() {
             "skid.toml",
             seed.replace("wheel_base_mm = 100\n", &slip.replace("= 5", "= nan")),
             "robot.slip.skid_mm_per_turn",
+        ),
+        (
+            "range_noise.toml",
+            seed.replace("dropout = 0.02", "dropout = 0.02\nnoise_per_m_mm = -1"),
+            "sensors.tof.noise_per_m_mm",
+        ),
+        (
+            "mixed.toml",
+            seed.replace("dropout = 0.02", "dropout = 0.02\nmixed_edge = 2"),
+            "sensors.tof.mixed_edge",
         ),
         (
             "slip_missing.toml",
