@@ -67,6 +67,9 @@ pub struct RunArgs {
     /// Also write the telemetry stream the robot would send on this run.
     #[arg(long, value_name = "FILE", value_hint = ValueHint::FilePath)]
     pub telemetry: Option<PathBuf>,
+    /// Write the final map as a ROS map_server pair, DIR/map.pgm and DIR/map.yaml.
+    #[arg(long, value_name = "DIR", value_hint = ValueHint::DirPath)]
+    pub export_map: Option<PathBuf>,
 }
 
 /// `host-sim view`.
@@ -95,6 +98,9 @@ pub struct ViewArgs {
     /// Score the map against this scenario's world, giving `run`'s figures.
     #[arg(long, value_name = "SCENARIO.toml", value_hint = ValueHint::FilePath)]
     pub scenario: Option<PathBuf>,
+    /// Write the final map as a ROS map_server pair, DIR/map.pgm and DIR/map.yaml.
+    #[arg(long, value_name = "DIR", value_hint = ValueHint::DirPath)]
+    pub export_map: Option<PathBuf>,
 }
 
 /// `host-sim serve`.

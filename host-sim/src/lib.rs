@@ -43,6 +43,7 @@ pub mod consistency;
 pub mod picture;
 pub mod record;
 pub mod robot;
+pub mod rosmap;
 pub mod route;
 pub mod run;
 pub mod scenario;

@@ -98,6 +98,18 @@ fn cmd_run(args: RunArgs) -> Result<(), Failure> {
             say!("pictures: {} {}", map.display(), chart.display());
         }
     }
+    if let Some(dir) = &args.export_map {
+        export_map(&output.record, dir, args.json)?;
+    }
+    Ok(())
+}
+
+/// Writes the final map of `record` as `DIR/map.pgm` and `DIR/map.yaml`.
+fn export_map(record: &RunRecord, dir: &Path, quiet: bool) -> Result<(), Failure> {
+    let yaml = host_sim::rosmap::write(&record.map, dir).map_err(|e| Failure(1, e.to_string()))?;
+    if !quiet {
+        say!("ROS map: {}", yaml.display());
+    }
     Ok(())
 }
 
@@ -193,6 +205,9 @@ fn cmd_view(args: ViewArgs) -> Result<(), Failure> {
         if recording.decoder.has_partial_frame() {
             say!("the stream ends inside a frame (cut short)");
         }
+    }
+    if let Some(dir) = &args.export_map {
+        export_map(&recording.recorder.record("robot"), dir, args.json)?;
     }
     if let Some(dir) = &args.out {
         let stem = if serial {
