@@ -1,6 +1,8 @@
 //! `--export-map DIR`: the final map as a ROS map_server pair, read back as a map server
 //! reads it and held to the run's own grid.
 
+// Only some of the shared helpers are used here.
+#[allow(dead_code)]
 mod common;
 
 use common::{host_sim, seed_path};
