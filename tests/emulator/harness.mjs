@@ -71,7 +71,9 @@ function main() {
     world.advance(nowS(), motors.left, motors.right);
   };
 
-  const rtt = new RttDrain(rp, rttSym.value);
+  // The defmt log is written as it comes, so that xtask can follow the run.
+  const defmtFd = args.defmt ? fs.openSync(args.defmt, 'w') : null;
+  const rtt = new RttDrain(rp, rttSym.value, defmtFd);
   // Both UARTs run BufferedUart; UART1 TX carries the telemetry.
   const telemetry = [];
   patchUart(rp, rp.uart[0], later, () => {});
@@ -111,7 +113,7 @@ function main() {
 
   if (args.telemetry) fs.writeFileSync(args.telemetry, Buffer.from(telemetry));
   if (args.truth) fs.writeFileSync(args.truth, truthLines.map((l) => `${l}\n`).join(''));
-  if (args.defmt) fs.writeFileSync(args.defmt, Buffer.from(rtt.bytes));
+  if (defmtFd !== null) fs.closeSync(defmtFd);
 
   const result = buildResult({
     args, chip, run, meter, rtt, world, motors, truth, devices, faults,

@@ -180,7 +180,7 @@ pub fn add_figures(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use object::write::{Object, Symbol, SymbolSection};
     use object::{
@@ -190,7 +190,7 @@ mod tests {
     /// An ELF with a defmt table as `defmt` 1 lays it out: one symbol per format string in
     /// `.defmt`, its address the string's index and its name the JSON defmt's macros write,
     /// plus the version and encoding symbols. Raw encoding keeps the frames readable.
-    fn fixture_elf(formats: &[(&str, &str)]) -> Vec<u8> {
+    pub(crate) fn fixture_elf(formats: &[(&str, &str)]) -> Vec<u8> {
         let mut obj = Object::new(BinaryFormat::Elf, Architecture::Arm, Endianness::Little);
         let defmt = obj.add_section(Vec::new(), b".defmt".to_vec(), SectionKind::Other);
         obj.append_section_data(defmt, &vec![0u8; formats.len() + 1], 1);
@@ -227,7 +227,7 @@ mod tests {
     const COUNTERS: &str =
         "ticks: {=u32}, overruns: {=u32}, max_late_us: {=u32}, max_step_us: {=u32}";
 
-    fn firmware_like_elf() -> Vec<u8> {
+    pub(crate) fn firmware_like_elf() -> Vec<u8> {
         fixture_elf(&[
             ("defmt_info", "BugBot firmware {=str}"),
             ("defmt_info", COUNTERS),
@@ -236,13 +236,13 @@ mod tests {
     }
 
     /// A raw-encoded frame: the string's index, then its arguments.
-    fn frame(index: u16, args: &[u8]) -> Vec<u8> {
+    pub(crate) fn frame(index: u16, args: &[u8]) -> Vec<u8> {
         let mut f = index.to_le_bytes().to_vec();
         f.extend_from_slice(args);
         f
     }
 
-    fn counters_frame(values: [u32; 4]) -> Vec<u8> {
+    pub(crate) fn counters_frame(values: [u32; 4]) -> Vec<u8> {
         frame(
             2,
             &values

@@ -16,6 +16,7 @@
 
 pub mod checks;
 pub mod defmt_log;
+pub mod progress;
 pub mod self_tests;
 
 use std::os::fd::AsFd;
@@ -136,7 +137,15 @@ pub fn run(args: &EmulateArgs) -> Result<(), String> {
     for f in &args.faults {
         harness.args(["--fault", f]);
     }
-    let harness_out = capture(&root, &mut harness)?;
+    // The last run's log goes first, so that the progress bar follows only this one.
+    let _ = std::fs::remove_file(&defmt);
+    let seconds: f64 = args.seconds.parse().unwrap_or(0.0);
+    let progress = progress::Progress::start(&elf, &defmt, seconds);
+    let harness_out = capture(&root, &mut harness);
+    if let Some(p) = progress {
+        p.finish();
+    }
+    let harness_out = harness_out?;
     let mut emulator: serde_json::Map<String, serde_json::Value> =
         serde_json::from_str(harness_out.trim())
             .map_err(|e| format!("the harness's figures are not a JSON object: {e}"))?;
