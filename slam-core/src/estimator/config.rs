@@ -42,7 +42,10 @@ pub struct EstimatorConfig {
     pub range_noise_mm: u32,
     /// ... and a part proportional to the range, per mille.
     pub range_noise_permille: u32,
-    /// The camera's bearing noise, millidegrees.
+    /// The camera's bearing noise at the picture's centre, millidegrees. A tag is found to
+    /// a share of a pixel anywhere in the picture, and the column is `focal tan(bearing)`,
+    /// so off the centre a pixel spans less angle: the filter scales this by cos^2 of the
+    /// bearing seen.
     pub bearing_noise_mdeg: u32,
     /// Tags read further than this, millimetres, are refused.
     pub max_range_mm: u32,
