@@ -28,8 +28,8 @@ pub struct EstimatorConfig {
     pub heading_noise_mdeg: u32,
     /// Heading noise per tick as a share of the angle turned that tick, ppm.
     pub heading_noise_ppm: u32,
-    /// Random walk of the gyro's bias per tick, millidegrees per second.
-    pub gyro_bias_walk_mdps: u32,
+    /// Random walk of the gyro's bias per tick, micro-degrees per second.
+    pub gyro_bias_walk_udps: u32,
     /// Random walk of the gyro's scale per tick, ppm.
     pub gyro_scale_walk_ppm: u32,
     /// Random walk of the flow sensor's scale per tick, ppm.
@@ -74,7 +74,7 @@ impl EstimatorConfig {
         position_noise_um_per_rad: 500,
         heading_noise_mdeg: 2,
         heading_noise_ppm: 500,
-        gyro_bias_walk_mdps: 1,
+        gyro_bias_walk_udps: 1_000,
         gyro_scale_walk_ppm: 10,
         flow_scale_walk_ppm: 10,
         stale_flow_mm: 10,

@@ -172,7 +172,7 @@ pub fn predict(p: &mut Matrix, c: &EstimatorConfig, m: &TickMotion) {
         position,
         heading,
         ppm(c.gyro_scale_walk_ppm).powi(2),
-        mdeg(c.gyro_bias_walk_mdps).powi(2),
+        (c.gyro_bias_walk_udps as f64 / 1e6).to_radians().powi(2),
         ppm(c.flow_scale_walk_ppm).powi(2),
     ];
     for i in 0..N {
