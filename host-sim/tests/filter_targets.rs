@@ -1,7 +1,8 @@
 //! The filter (`--pose slam`) against the issue's targets, on every shipped scenario and
 //! seeds 1 to 20: accuracy where the issue names it, and everywhere a 3-sigma bound the
-//! true error keeps inside.
+//! true error keeps inside without being lazily wide.
 
+use host_sim::consistency::{median, scored_bounds};
 use host_sim::scenario::SHIPPED;
 use host_sim::{run, Figures, PoseMode, Scenario};
 use std::path::Path;
@@ -9,6 +10,11 @@ use std::path::Path;
 const SEEDS: std::ops::RangeInclusive<u64> = 1..=20;
 
 fn runs(name: &str) -> Vec<Figures> {
+    runs_with(name, |out| out.figures)
+}
+
+/// `keep` of each seed's run of the scenario `name`.
+fn runs_with<T>(name: &str, keep: impl Fn(host_sim::run::RunOutput) -> T) -> Vec<T> {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("scenarios")
         .join(name);
@@ -18,7 +24,7 @@ fn runs(name: &str) -> Vec<Figures> {
     };
     SEEDS
         .map(|seed| match run(&scenario, PoseMode::Slam, seed) {
-            Ok(out) => out.figures,
+            Ok(out) => keep(out),
             Err(e) => panic!("{name} seed {seed}: {e}"),
         })
         .collect()
@@ -49,15 +55,39 @@ fn the_bound_holds_the_error_on_every_shipped_scenario() {
     }
 }
 
+/// Every shipped scenario: the bound is not lazily wide. Over every scored tick of the
+/// twenty seeds together, the median 3-sigma bound is at most 4 times the median true
+/// error (a consistent filter's is about 2.5 with a round position ellipse, 4.4 with a
+/// flat one).
+#[test]
+fn the_bound_is_not_lazily_wide_on_every_shipped_scenario() {
+    for name in SHIPPED {
+        let (mut bounds, mut errors): (Vec<f64>, Vec<f64>) = runs_with(name, |out| {
+            scored_bounds(&out.record.ticks).collect::<Vec<_>>()
+        })
+        .into_iter()
+        .flatten()
+        .unzip();
+        let (Some(bound), Some(error)) = (median(&mut bounds), median(&mut errors)) else {
+            panic!("{name}: no scored ticks");
+        };
+        assert!(
+            bound <= 4.0 * error,
+            "{name}: median bound {bound:.3} cm, median error {error:.3} cm"
+        );
+    }
+}
+
 /// The seed mat: at most 0.6 cm off over the whole run and nothing out of place, on every
-/// seed; the learned gyro scale within 0.1 % of the simulator's true correction. (The
-/// issue's 0.5 degrees of heading is missed on one seed of twenty, by 0.05: held here to
-/// 0.6, and said so in the README.)
+/// seed; the learned gyro scale within 0.1 % of the simulator's true correction. The
+/// issue's 0.5 degrees of heading is missed on one seed of twenty, so it is held to 0.55
+/// here (the README says why: the gyro's scale is learned from tag 11 alone over the
+/// first turn's first 60 degrees, then flown 240 degrees without a tag).
 #[test]
 fn the_seed_mat() {
     let runs = runs("seed-mat.toml");
     assert!(worst(&runs, |f| f.max_error_cm) <= 0.6);
-    assert!(worst(&runs, |f| f.max_heading_error_deg) <= 0.6);
+    assert!(worst(&runs, |f| f.max_heading_error_deg) <= 0.55);
     assert!(runs.iter().all(|f| f.out_of_place == 0));
     for f in &runs {
         let Some(e) = &f.estimator else {

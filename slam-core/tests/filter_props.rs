@@ -33,7 +33,7 @@ const EXACT: EstimatorConfig = EstimatorConfig {
     position_noise_um_per_rad: 0,
     heading_noise_mdeg: 7,
     heading_noise_ppm: 0,
-    gyro_bias_walk_mdps: 7,
+    gyro_bias_walk_udps: 7_000,
     gyro_scale_walk_ppm: 61,
     flow_scale_walk_ppm: 61,
     range_noise_mm: 3,

@@ -198,6 +198,8 @@ impl Estimator {
         let position_q8 = |um: u32| units::position_from_um_frac(i64::from(um), 8);
         let heading_q8 = |mdeg: u32| units::heading_from_mdeg_frac(i64::from(mdeg), 8);
         let scale_q8 = |ppm: u32| units::scale_from_ppm_frac(i64::from(ppm), 8);
+        // Micro-degrees per second to 1/256 bias units (x pi / 180e6 x 2^16 x 2^8, Q16).
+        let bias_q8 = |udps: u32| mul_shift(i64::from(udps), 19_190, 16);
         let distance = crate::pose::hypot(dx, dy).min(i64::MAX as u64) as i64;
         let turn = turn.abs();
         let position = if flow {
@@ -222,7 +224,7 @@ impl Estimator {
             position,
             heading,
             var(scale_q8(c.gyro_scale_walk_ppm)),
-            var(heading_q8(c.gyro_bias_walk_mdps)),
+            var(bias_q8(c.gyro_bias_walk_udps)),
             var(scale_q8(c.flow_scale_walk_ppm)),
         ]
     }

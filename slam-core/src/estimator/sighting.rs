@@ -132,7 +132,11 @@ impl Estimator {
                 16,
             );
         let r_range = square(range_sigma);
-        let r_bearing = square(units::heading_from_mdeg(i64::from(cfg.bearing_noise_mdeg)));
+        // A pixel off the picture's centre spans a smaller angle: the column is
+        // `focal tan(bearing)`, so the bearing's noise is the centre's times cos^2.
+        let cos2 = (i64::from(cos_m) * i64::from(cos_m)) >> 16;
+        let sigma_bearing = units::heading_from_mdeg(i64::from(cfg.bearing_noise_mdeg));
+        let r_bearing = square(mul_shift(sigma_bearing, cos2, 16)).max(1);
 
         let a_range = self.p.times_unit_row(&h_range);
         let across = self.p.times_unit_row(&h_across);

@@ -172,7 +172,7 @@ pub fn predict(p: &mut Matrix, c: &EstimatorConfig, m: &TickMotion) {
         position,
         heading,
         ppm(c.gyro_scale_walk_ppm).powi(2),
-        mdeg(c.gyro_bias_walk_mdps).powi(2),
+        (c.gyro_bias_walk_udps as f64 / 1e6).to_radians().powi(2),
         ppm(c.flow_scale_walk_ppm).powi(2),
     ];
     for i in 0..N {
@@ -268,7 +268,7 @@ impl Sighting {
         h[1][HEADING] = -1.0;
         let r = [
             (c.range_noise_mm as f64 + rj * c.range_noise_permille as f64 / 1000.0).powi(2),
-            mdeg(c.bearing_noise_mdeg).powi(2),
+            (mdeg(c.bearing_noise_mdeg) * seen.cos().powi(2)).powi(2),
         ];
         let mut s = [[0.0; 2]; 2];
         for a in 0..2 {
