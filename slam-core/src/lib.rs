@@ -18,6 +18,7 @@ pub mod grid;
 pub mod history;
 #[cfg(test)]
 mod lcg;
+pub mod matcher;
 pub mod odometry;
 pub mod pose;
 pub mod slam;
