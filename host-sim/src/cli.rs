@@ -117,7 +117,7 @@ pub struct BenchArgs {
     pub scenario: PathBuf,
 }
 
-/// `--pose`: the four names, listed in `--help` and in the error for any other.
+/// `--pose`: the five names, listed in `--help` and in the error for any other.
 fn pose_mode() -> impl TypedValueParser<Value = PoseMode> {
     PossibleValuesParser::new(
         [
@@ -125,6 +125,7 @@ fn pose_mode() -> impl TypedValueParser<Value = PoseMode> {
             PoseMode::DeadReckoning,
             PoseMode::Tags,
             PoseMode::Slam,
+            PoseMode::Match,
         ]
         .map(PoseMode::name),
     )

@@ -141,6 +141,10 @@ pub enum MatchRefusal {
     NothingPinned,
     /// The window spans more cells than the footprint holds.
     Window,
+    /// The filter found the match beyond its chi-square gate.
+    Gate,
+    /// The sweep's newest scan is older than the pose history reaches.
+    TooOld,
 }
 
 /// The match's covariance: position in micrometres, heading in millidegrees (clockwise
@@ -192,6 +196,9 @@ pub struct Match {
     pub covariance: MatchCovariance,
     /// The directions it pins; the covariance along the others is the window's.
     pub pins: Pins,
+    /// The direction (a line, within a quarter turn of +y) of the position's wider
+    /// spread: the position's covariance has no cross term along it and across it.
+    pub wide: Angle,
     /// The best candidate's score and the lowest one computed.
     pub best_score: i32,
     /// See `best_score`.
@@ -211,7 +218,8 @@ pub struct Matcher<const SIDE: usize, const TURNS: usize> {
 impl<const SIDE: usize, const TURNS: usize> Matcher<SIDE, TURNS> {
     /// A matcher, once its window and configuration are checked against `cell_mm`.
     pub fn new(config: MatcherConfig, cell_mm: i32) -> Result<Self, MatcherConfigError> {
-        if SIDE < 3 || TURNS < 3 || SIDE.is_multiple_of(2) || TURNS.is_multiple_of(2) || SIDE > 255 {
+        if SIDE < 3 || TURNS < 3 || SIDE.is_multiple_of(2) || TURNS.is_multiple_of(2) || SIDE > 255
+        {
             return Err(MatcherConfigError::Window);
         }
         let span = (SIDE as i32 - 1).saturating_mul(config.step_mm);
@@ -280,6 +288,7 @@ impl<const SIDE: usize, const TURNS: usize> Matcher<SIDE, TURNS> {
             return Err(MatchRefusal::NoFit);
         }
         let pins = self.pins(&m.covariance_q16, m.best == m.worst)?;
+        let wide = surface::spread(&m.covariance_q16).wide.1;
 
         let (step_um, step_mdeg) = (i64::from(c.step_mm) * 1000, i64::from(c.step_mdeg));
         let q8 = |v: i32, unit: i64| (i64::from(v) * unit + 128) >> 8;
@@ -307,6 +316,7 @@ impl<const SIDE: usize, const TURNS: usize> Matcher<SIDE, TURNS> {
             pose,
             covariance,
             pins,
+            wide,
             best_score: m.best,
             worst_score: m.worst,
             stats,
