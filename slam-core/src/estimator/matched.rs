@@ -1,11 +1,14 @@
 //! A scan match as a filter update: the matched pose of the sweep's moment, measured only
 //! along the directions the match pins, with the covariance its score surface shows.
 //!
-//! The position is measured along the two principal directions of the match's position
-//! covariance (where its cross term vanishes) and the heading on its own; the match's
-//! correlation between heading and position is left out, which a scalar update cannot
-//! carry. Each pair of measurements is one two-row update of the covariance, gated at the
-//! tags' chi-square; an unpinned direction is simply not measured.
+//! The components are the position across and along the match's wider spread and the
+//! heading; those the match pins are measured, the others left out (the marginal of the
+//! match's Gaussian). Their joint covariance, correlations included, is factored
+//! `L D L^T`, so that each becomes a scalar measurement with its own noise (the later
+//! ones less what the earlier explain), and each pair of scalars is one two-row update of
+//! the covariance, gated at the tags' chi-square. The match's spread is widened by
+//! [`MatchNoise`] before: the map it matched against was built at poses no better than
+//! the filter's, and its errors repeat from one match to the next.
 
 use super::covariance::{GAIN_SHIFT, N};
 use super::filter::Estimator;
@@ -14,7 +17,7 @@ use super::units::{self, FINE_SHIFT};
 use super::State;
 use crate::angle::Angle;
 use crate::matcher::{Match, MatchRefusal, Pins};
-use crate::pose::{isqrt, Pose};
+use crate::pose::Pose;
 
 /// What the filter adds to a match's own spread: the map it matched against was built at
 /// poses no better than the filter's, which the score surface cannot know.
@@ -75,17 +78,25 @@ impl MatchCounters {
     }
 }
 
-/// One scalar measurement: a unit row (Q16), the innovation and its noise, in covariance
-/// units.
+/// One scalar measurement: a row over x, y and heading (Q16, each entry within 1.0),
+/// the innovation and its noise, in covariance units.
 #[derive(Clone, Copy)]
 struct Scalar {
-    h: [(State, i32); 2],
+    h: [(State, i32); 3],
     nu: i64,
     r: i64,
 }
 
+/// A component of the match: across its wider spread, along it, or the heading.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Component {
+    Across = 0,
+    Along = 1,
+    Heading = 2,
+}
+
 /// `h a` for a sparse Q16 row `h`.
-fn dot(h: &[(State, i32); 2], a: &[i64; N]) -> i64 {
+fn dot(h: &[(State, i32)], a: &[i64; N]) -> i64 {
     h.iter()
         .map(|&(j, v)| mul_shift(a[j as usize], i64::from(v), 16))
         .sum()
@@ -100,62 +111,185 @@ fn normalised_square_q8(nu: i64, s: &Reciprocal) -> i64 {
     }
 }
 
+/// `x / d` in Q16 (`d > 0`).
+fn ratio_q16(x: i64, d: i64) -> Option<i64> {
+    Some(Reciprocal::of(d)?.times(x, 16))
+}
+
+/// The match in the filter's units along its components: innovations, their covariance
+/// (inflated by `noise`) and each component's row over x, y and heading (Q16).
+struct Components {
+    nu: [i64; 3],
+    c: [[i64; 3]; 3],
+    rows: [[i64; 3]; 3],
+}
+
+impl Components {
+    fn of(matched: &Match, noise: &MatchNoise) -> Components {
+        let then = &matched.prediction;
+        let m = &matched.covariance;
+        let dx = i64::from(matched.pose.x_um) - i64::from(then.x_um);
+        let dy = i64::from(matched.pose.y_um) - i64::from(then.y_um);
+        let dh = (matched.pose.heading - then.heading).signed_bits();
+        // Along the wider spread (sin a, cos a), across it (cos a, -sin a); Q16.
+        let (s, co) = (i64::from(matched.wide.sin()), i64::from(matched.wide.cos()));
+        let units = [(co, -s), (s, co)];
+        // The match's covariance in these components: um^2, um mdeg, mdeg^2.
+        let pos = |u: (i64, i64), v: (i64, i64)| {
+            mul_shift(m.xx_um2, u.0 * v.0, 32)
+                + mul_shift(m.xy_um2, u.0 * v.1 + u.1 * v.0, 32)
+                + mul_shift(m.yy_um2, u.1 * v.1, 32)
+        };
+        let cross =
+            |u: (i64, i64)| mul_shift(m.xh_um_mdeg, u.0, 16) + mul_shift(m.yh_um_mdeg, u.1, 16);
+        let raw = [
+            [
+                pos(units[0], units[0]),
+                pos(units[0], units[1]),
+                cross(units[0]),
+            ],
+            [
+                pos(units[1], units[0]),
+                pos(units[1], units[1]),
+                cross(units[1]),
+            ],
+            [cross(units[0]), cross(units[1]), m.hh_mdeg2],
+        ];
+        // Scaled (the correlations kept), the floors added to the variances, and into the
+        // filter's units: position 1/16 mm, heading 2^-16 rad.
+        let scale = i64::from(noise.scale_pct);
+        let floors = [
+            square(i64::from(noise.position_um)),
+            square(i64::from(noise.position_um)),
+            square(i64::from(noise.heading_mdeg)),
+        ];
+        let to_filter = |v: i64, i: usize| {
+            if i == 2 {
+                units::heading_from_mdeg(v)
+            } else {
+                units::position_from_um(v)
+            }
+        };
+        let mut c = [[0i64; 3]; 3];
+        for (i, row) in c.iter_mut().enumerate() {
+            for (j, out) in row.iter_mut().enumerate() {
+                let mut v = raw[i][j] * scale / 100 * scale / 100;
+                if i == j {
+                    v += floors[i];
+                }
+                *out = to_filter(to_filter(v, i), j);
+            }
+        }
+        let along_um = |u: (i64, i64)| mul_shift(dx, u.0, 16) + mul_shift(dy, u.1, 16);
+        Components {
+            nu: [
+                units::position_from_um(along_um(units[0])),
+                units::position_from_um(along_um(units[1])),
+                units::heading_from_bits(i64::from(dh)),
+            ],
+            c,
+            rows: [[co, -s, 0], [s, co, 0], [0, 0, 1 << 16]],
+        }
+    }
+
+    /// The chosen components as independent scalar measurements (the match's covariance
+    /// factored as `L D L^T`, each measurement less what the earlier ones explain), in
+    /// `order`. `None` if a variance left is not positive.
+    fn whitened(&self, order: &[Component]) -> Option<([Scalar; 3], usize)> {
+        let n = order.len().min(3);
+        let idx = |k: usize| order.get(k).map_or(0, |&c| c as usize);
+        let c = |i: usize, j: usize| self.c[idx(i)][idx(j)];
+        let mut l = [[0i64; 3]; 3];
+        let mut d = [0i64; 3];
+        for i in 0..n {
+            for j in 0..i {
+                // L_ij = (C_ij - sum_k<j L_ik L_jk D_k) / D_j
+                let mut v = c(i, j);
+                for k in 0..j {
+                    v -= mul_shift(mul_shift(l[i][k], l[j][k], 16), d[k], 16);
+                }
+                l[i][j] = ratio_q16(v, d[j])?;
+            }
+            let mut v = c(i, i);
+            for k in 0..i {
+                v -= mul_shift(mul_shift(l[i][k], l[i][k], 16), d[k], 16);
+            }
+            if v <= 0 {
+                return None;
+            }
+            d[i] = v;
+        }
+        let mut out = [Scalar {
+            h: [(State::X, 0), (State::Y, 0), (State::Heading, 0)],
+            nu: 0,
+            r: 1,
+        }; 3];
+        let mut nus = [0i64; 3];
+        let mut rows = [[0i64; 3]; 3];
+        for i in 0..n {
+            let mut nu = self.nu[idx(i)];
+            let mut row = self.rows[idx(i)];
+            for k in 0..i {
+                nu -= mul_shift(l[i][k], nus[k], 16);
+                for (r, e) in row.iter_mut().zip(rows[k]) {
+                    *r -= mul_shift(l[i][k], e, 16);
+                }
+            }
+            nus[i] = nu;
+            rows[i] = row;
+            // Rows within 1.0: a larger one is scaled down with its innovation and noise.
+            let big = row.iter().map(|e| e.abs()).max().unwrap_or(0);
+            let (row, nu, r) = if big > 1 << 16 {
+                let f = Reciprocal::of(big)?;
+                let shrink = |v: i64| f.times(v, 16);
+                (row.map(shrink), shrink(nu), shrink(shrink(d[i])))
+            } else {
+                (row, nu, d[i])
+            };
+            let e = |k: usize| {
+                row.get(k)
+                    .map_or(0, |&v| v.clamp(-(1 << 16), 1 << 16) as i32)
+            };
+            out[i] = Scalar {
+                h: [(State::X, e(0)), (State::Y, e(1)), (State::Heading, e(2))],
+                nu,
+                r: r.max(1),
+            };
+        }
+        Some((out, n))
+    }
+}
+
 impl Estimator {
     /// Updates the filter from `matched`, the sweep's pose at its newest scan's moment
     /// against `matched.prediction`, the pose believed then. Returns the corrected pose
-    /// of that moment, or [`MatchRefusal::Gate`].
+    /// of that moment, or why the match was refused.
     pub fn apply_match(
         &mut self,
         matched: &Match,
         noise: &MatchNoise,
     ) -> Result<Pose, MatchRefusal> {
+        use Component::{Across, Along, Heading};
         let then = matched.prediction;
-        let c = &matched.covariance;
-        let dx = i64::from(matched.pose.x_um) - i64::from(then.x_um);
-        let dy = i64::from(matched.pose.y_um) - i64::from(then.y_um);
-        // Along the wider spread (sin a, cos a) and across it (cos a, -sin a).
-        let along_angle = matched.wide;
-        let (s, co) = (i64::from(along_angle.sin()), i64::from(along_angle.cos()));
-        let directional = |ux: i64, uy: i64| {
-            // u^T C u in um^2, the unit vector in Q16.
-            let var = (mul_shift(c.xx_um2, ux * ux, 32)
-                + 2 * mul_shift(c.xy_um2, ux * uy, 32)
-                + mul_shift(c.yy_um2, uy * uy, 32))
-            .max(0);
-            let nu_um = mul_shift(dx, ux, 16) + mul_shift(dy, uy, 16);
-            let sigma_um = i64::from(isqrt(var as u64) as u32) * i64::from(noise.scale_pct) / 100
-                + i64::from(noise.position_um);
-            Scalar {
-                h: [(State::X, ux as i32), (State::Y, uy as i32)],
-                nu: units::position_from_um(nu_um),
-                r: square(units::position_from_um(sigma_um)).max(1),
-            }
+        let parts = Components::of(matched, noise);
+        // The heading second: a match that cannot place the robot along a wall still
+        // turns it, and a third measurement may be refused alone.
+        let order: &[Component] = match matched.pins {
+            Pins::All => &[Across, Heading, Along],
+            Pins::AllButAlong(_) => &[Across, Heading],
+            Pins::AcrossOnly(_) => &[Across],
+            Pins::PositionOnly => &[Across, Along],
+            Pins::HeadingOnly => &[Heading],
         };
-        let along = directional(s, co);
-        let across = directional(co, -s);
-        let heading = {
-            let dh = (matched.pose.heading - then.heading).signed_bits();
-            let sigma_mdeg = i64::from(isqrt(c.hh_mdeg2.max(0) as u64) as u32)
-                * i64::from(noise.scale_pct)
-                / 100
-                + i64::from(noise.heading_mdeg);
-            Scalar {
-                h: [(State::Heading, 1 << 16), (State::X, 0)],
-                nu: units::heading_from_bits(i64::from(dh)),
-                r: square(units::heading_from_mdeg(sigma_mdeg)).max(1),
-            }
-        };
+        let (scalars, n) = parts.whitened(order).ok_or(MatchRefusal::NothingPinned)?;
+        let scalars = scalars.get(..n).unwrap_or(&[]);
         let mut fine = [0i64; N];
-        match matched.pins {
-            Pins::All => {
-                self.update_pair(across, Some(heading), &mut fine)?;
-                // The along direction after: a refusal of it alone keeps the first pair.
-                let _ = self.update_pair(along, None, &mut fine);
-            }
-            Pins::AllButAlong(_) => self.update_pair(across, Some(heading), &mut fine)?,
-            Pins::AcrossOnly(_) => self.update_pair(across, None, &mut fine)?,
-            Pins::PositionOnly => self.update_pair(across, Some(along), &mut fine)?,
-            Pins::HeadingOnly => self.update_pair(heading, None, &mut fine)?,
+        let mut pairs = scalars.chunks(2);
+        if let Some(first) = pairs.next() {
+            self.update_pair(first[0], first.get(1).copied(), &mut fine)?;
+        }
+        for rest in pairs {
+            let _ = self.update_pair(rest[0], rest.get(1).copied(), &mut fine);
         }
         self.bound_variances();
         let [fx, fy, fh, gs, gb, fs] = fine;
