@@ -273,7 +273,7 @@ impl Estimator {
         let then = matched.prediction;
         let parts = Components::of(matched, noise);
         // The heading second: a match that cannot place the robot along a wall still
-        // turns it, and a third measurement may be refused alone.
+        // turns it.
         let order: &[Component] = match matched.pins {
             Pins::All => &[Across, Heading, Along],
             Pins::AllButAlong(_) => &[Across, Heading],
@@ -283,14 +283,14 @@ impl Estimator {
         };
         let (scalars, n) = parts.whitened(order).ok_or(MatchRefusal::NothingPinned)?;
         let scalars = scalars.get(..n).unwrap_or(&[]);
+        // Each pair is gated given the ones before; one beyond the gate refuses the whole
+        // match, so the pairs go into a copy first (a 6 x 6 matrix: a few hundred bytes).
         let mut fine = [0i64; N];
-        let mut pairs = scalars.chunks(2);
-        if let Some(first) = pairs.next() {
-            self.update_pair(first[0], first.get(1).copied(), &mut fine)?;
+        let mut trial = self.clone();
+        for pair in scalars.chunks(2) {
+            trial.update_pair(pair[0], pair.get(1).copied(), &mut fine)?;
         }
-        for rest in pairs {
-            let _ = self.update_pair(rest[0], rest.get(1).copied(), &mut fine);
-        }
+        *self = trial;
         self.bound_variances();
         let [fx, fy, fh, gs, gb, fs] = fine;
         self.correct_calibration([gs, gb, fs]);
