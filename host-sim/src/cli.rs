@@ -123,7 +123,7 @@ pub struct BenchArgs {
     pub scenario: PathBuf,
 }
 
-/// `--pose`: the four names, listed in `--help` and in the error for any other.
+/// `--pose`: the five names, listed in `--help` and in the error for any other.
 fn pose_mode() -> impl TypedValueParser<Value = PoseMode> {
     PossibleValuesParser::new(
         [
@@ -131,6 +131,7 @@ fn pose_mode() -> impl TypedValueParser<Value = PoseMode> {
             PoseMode::DeadReckoning,
             PoseMode::Tags,
             PoseMode::Slam,
+            PoseMode::Match,
         ]
         .map(PoseMode::name),
     )

@@ -12,7 +12,7 @@ use crate::telemetry::TelemetryWriter;
 use serde::Serialize;
 use slam_core::{
     Angle, CameraConfig, DepthConfig, FixOutcome, GridGeometry, GridMap, KnownTag, Localiser,
-    OdometryConfig, Pose, SensorFrame, Slam, SlamConfig, TagMap,
+    MatchingConfig, OdometryConfig, Pose, SensorFrame, Slam, SlamConfig, TagMap,
 };
 use std::fmt;
 use std::str::FromStr;
@@ -40,6 +40,8 @@ pub enum PoseMode {
     Tags,
     /// The filter: odometry, every tag sighting and the learned calibration.
     Slam,
+    /// The filter with scan-to-map matching and no tags: odometry and the map alone.
+    Match,
 }
 
 impl PoseMode {
@@ -50,6 +52,7 @@ impl PoseMode {
             PoseMode::DeadReckoning => "dead-reckoning",
             PoseMode::Tags => "tags",
             PoseMode::Slam => "slam",
+            PoseMode::Match => "match",
         }
     }
 
@@ -58,7 +61,7 @@ impl PoseMode {
         match self {
             PoseMode::Truth | PoseMode::DeadReckoning => Localiser::DeadReckoning,
             PoseMode::Tags => Localiser::TwoTagFix,
-            PoseMode::Slam => Localiser::Filter,
+            PoseMode::Slam | PoseMode::Match => Localiser::Filter,
         }
     }
 }
@@ -71,8 +74,9 @@ impl FromStr for PoseMode {
             "dead-reckoning" => Ok(PoseMode::DeadReckoning),
             "tags" => Ok(PoseMode::Tags),
             "slam" => Ok(PoseMode::Slam),
+            "match" => Ok(PoseMode::Match),
             other => Err(format!(
-                "unknown pose mode `{other}`: expected truth, dead-reckoning, tags or slam"
+                "unknown pose mode `{other}`: expected truth, dead-reckoning, tags, slam or match"
             )),
         }
     }
@@ -181,6 +185,7 @@ impl fmt::Display for RunError {
                     slam_core::ConfigError::FocalLength => " (sensors.camera.focal_px)",
                     slam_core::ConfigError::MaxRange => " (grid.max_range_mm)",
                     slam_core::ConfigError::Evidence => "",
+                    slam_core::ConfigError::Matching => " (grid.cell_mm: the matcher's window)",
                 };
                 write!(f, "the core refused the configuration: {e:?}{field}")
             }
@@ -329,6 +334,10 @@ fn run_sized<const W: usize, const H: usize>(
 ) -> Result<RunOutput, RunError> {
     let mut config = slam_config(scenario);
     config.localiser = mode.localiser();
+    if mode == PoseMode::Match {
+        config.matching = Some(MatchingConfig::SEED);
+        config.tags = TagMap::default();
+    }
     let mut robot = Robot::new(scenario, seed);
     let start = to_core_pose(&robot.truth());
     let mut slam: Box<Slam<W, H>> = Box::new(Slam::new(config, start).map_err(RunError::Config)?);

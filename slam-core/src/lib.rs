@@ -18,6 +18,7 @@ pub mod grid;
 pub mod history;
 #[cfg(test)]
 mod lcg;
+pub mod matcher;
 pub mod odometry;
 pub mod pose;
 pub mod slam;
@@ -34,7 +35,8 @@ pub use grid::{Evidence, GridGeometry, GridMap, LogOdds, Occupancy, OccupancyCou
 pub use odometry::OdometryConfig;
 pub use pose::Pose;
 pub use slam::{
-    ConfigError, Counters, DepthConfig, Localiser, Slam, SlamConfig, Staleness, StepReport,
+    ConfigError, Counters, DepthConfig, Localiser, MatchingConfig, Slam, SlamConfig, Staleness,
+    StepReport,
 };
 pub use tagfix::{CameraConfig, FixConfig, FixOutcome, FixRejection, KnownTag, TagMap};
 

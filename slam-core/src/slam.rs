@@ -1,10 +1,13 @@
 //! The SLAM loop: one pure `step` per tick, called alike by the firmware and the simulator.
 
 use crate::angle::Angle;
-use crate::estimator::{Estimate, Estimator, EstimatorConfig, TagCounters, TagRefusal};
+use crate::estimator::{
+    Estimate, Estimator, EstimatorConfig, MatchCounters, MatchNoise, TagCounters, TagRefusal,
+};
 use crate::frame::{DepthScan, SensorFrame, BEAMS};
 use crate::grid::{Evidence, GridGeometry, GridMap};
 use crate::history::PoseHistory;
+use crate::matcher::{Match, MatcherConfig, SeedMatcher, Sweep, SWEEP_TICKS};
 use crate::odometry::{self, OdometryConfig};
 use crate::pose::{mul_q16, Pose, RigidMotion};
 use crate::tagfix::{self, CameraConfig, FixConfig, FixOutcome, FixRejection, KnownTag, TagMap};
@@ -62,6 +65,26 @@ pub struct SlamConfig {
     pub fix: FixConfig,
     /// The filter's noise model and gate ([`Localiser::Filter`]).
     pub estimator: EstimatorConfig,
+    /// Scan-to-map matching as a filter update ([`Localiser::Filter`] only); `None`: off.
+    pub matching: Option<MatchingConfig>,
+}
+
+/// The matcher and what the filter adds to its matches' spread.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MatchingConfig {
+    /// The search.
+    pub matcher: MatcherConfig,
+    /// The filter's view of a match.
+    pub noise: MatchNoise,
+}
+
+impl MatchingConfig {
+    /// The seed's matcher and noise.
+    pub const SEED: MatchingConfig = MatchingConfig {
+        matcher: MatcherConfig::SEED,
+        noise: MatchNoise::SEED,
+    };
 }
 
 /// What corrects the pose that odometry predicts.
@@ -88,6 +111,8 @@ pub enum ConfigError {
     FocalLength,
     /// The depth sensor's range limit must be longer than a cell.
     MaxRange,
+    /// Matching needs the filter, and a window the matcher can search.
+    Matching,
 }
 
 impl SlamConfig {
@@ -125,6 +150,7 @@ impl SlamConfig {
             localiser: Localiser::TwoTagFix,
             fix: FixConfig::SEED,
             estimator: EstimatorConfig::SEED,
+            matching: None,
         }
     }
 
@@ -145,6 +171,13 @@ impl SlamConfig {
         }
         if (self.depth.max_range_mm as i32) <= self.geometry.cell_mm {
             return Err(ConfigError::MaxRange);
+        }
+        if let Some(m) = &self.matching {
+            if self.localiser != Localiser::Filter {
+                return Err(ConfigError::Matching);
+            }
+            SeedMatcher::new(m.matcher, self.geometry.cell_mm)
+                .map_err(|_| ConfigError::Matching)?;
         }
         Ok(())
     }
@@ -220,6 +253,11 @@ pub struct Slam<const W: usize, const H: usize> {
     counters: Counters,
     gate_rejections_in_a_row: u8,
     estimator: Estimator,
+    /// The scans of the last second, not yet in the map ([`SlamConfig::matching`]).
+    sweep: Sweep<SWEEP_TICKS>,
+    matcher: SeedMatcher,
+    match_counters: MatchCounters,
+    last_match: Option<Match>,
 }
 
 impl<const W: usize, const H: usize> Slam<W, H> {
@@ -234,6 +272,14 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             counters: Counters::default(),
             gate_rejections_in_a_row: 0,
             estimator: Estimator::new(config.estimator),
+            sweep: Sweep::new(),
+            matcher: SeedMatcher::new(
+                config.matching.map_or(MatcherConfig::SEED, |m| m.matcher),
+                config.geometry.cell_mm,
+            )
+            .map_err(|_| ConfigError::Matching)?,
+            match_counters: MatchCounters::default(),
+            last_match: None,
         })
     }
 
@@ -245,6 +291,19 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         self.counters = Counters::default();
         self.gate_rejections_in_a_row = 0;
         self.estimator = Estimator::new(self.config.estimator);
+        self.sweep.clear();
+        self.match_counters = MatchCounters::default();
+        self.last_match = None;
+    }
+
+    /// Matches used and refused, by cause ([`SlamConfig::matching`]).
+    pub fn match_counters(&self) -> &MatchCounters {
+        &self.match_counters
+    }
+
+    /// The newest match the matcher made, whether the filter took it or not.
+    pub fn last_match(&self) -> Option<&Match> {
+        self.last_match.as_ref()
     }
 
     /// The current pose estimate.
@@ -328,6 +387,9 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             .as_ref()
             .map(|scan| (scan, self.history.at(frame.depth_age_us)));
         let cells_written = match scan {
+            Some((scan, Some(then))) if self.config.matching.is_some() => {
+                self.sweep_scan(scan, &then)
+            }
             Some((scan, Some(then))) => self.map_scan(scan, &then),
             Some((_, None)) => {
                 stale.depth = true;
@@ -377,8 +439,9 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             {
                 Ok(corrected) => {
                     if let Some(then) = then {
-                        self.history
-                            .carry(&RigidMotion::carrying(&then, &corrected));
+                        let motion = RigidMotion::carrying(&then, &corrected);
+                        self.history.carry(&motion);
+                        self.sweep.carry(&motion);
                         self.pose = self.history.newest();
                     }
                     outcome = FixOutcome::Taken;
@@ -400,6 +463,35 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             _ => {}
         }
         outcome
+    }
+
+    /// With matching on: the scan joins the sweep, the scan leaving the sweep goes into
+    /// the map (so the map never holds a beam the sweep matches against it), and the
+    /// sweep is matched. Returns the cells written.
+    fn sweep_scan(&mut self, scan: &DepthScan, then: &Pose) -> u32 {
+        let written = match self.sweep.push(self.counters.ticks, *then, *scan) {
+            Some(left) => self.map_scan(&left.scan, &left.pose),
+            None => 0,
+        };
+        let Some(matching) = self.config.matching else {
+            return written;
+        };
+        let outcome = self
+            .matcher
+            .match_sweep(&self.sweep, &self.config.depth.beam_angles, &self.map)
+            .and_then(|m| {
+                self.last_match = Some(m);
+                let corrected = self.estimator.apply_match(&m, &matching.noise)?;
+                Ok(RigidMotion::carrying(&m.prediction, &corrected))
+            });
+        if let Ok(motion) = &outcome {
+            self.history.carry(motion);
+            self.sweep.carry(motion);
+            self.pose = self.history.newest();
+        }
+        self.estimator.settle();
+        self.match_counters.count(outcome.map(|_| ()));
+        written
     }
 
     fn correct(&mut self, frame: &SensorFrame) -> FixOutcome {

@@ -25,11 +25,13 @@ pub mod config;
 pub mod covariance;
 mod filter;
 pub mod fixed;
+mod matched;
 mod sighting;
 pub mod units;
 
 pub use config::EstimatorConfig;
 pub use filter::Estimator;
+pub use matched::{MatchCounters, MatchNoise};
 
 /// The filter's states, in the covariance's order.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]

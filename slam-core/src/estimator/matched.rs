@@ -1,0 +1,362 @@
+//! A scan match as a filter update: the matched pose of the sweep's moment, measured only
+//! along the directions the match pins, with the covariance its score surface shows.
+//!
+//! The components are the position across and along the match's wider spread and the
+//! heading; those the match pins are measured, the others left out (the marginal of the
+//! match's Gaussian). Their joint covariance, correlations included, is factored
+//! `L D L^T`, so that each becomes a scalar measurement with its own noise (the later
+//! ones less what the earlier explain), and each pair of scalars is one two-row update of
+//! the covariance, gated at the tags' chi-square. The match's spread is widened by
+//! [`MatchNoise`] before: the map it matched against was built at poses no better than
+//! the filter's, and its errors repeat from one match to the next.
+
+use super::covariance::{GAIN_SHIFT, N};
+use super::filter::Estimator;
+use super::fixed::{fits_i32, mul_shift, square, Reciprocal};
+use super::units::{self, FINE_SHIFT};
+use super::State;
+use crate::angle::Angle;
+use crate::matcher::{Match, MatchRefusal, Pins};
+use crate::pose::Pose;
+
+/// What the filter adds to a match's own spread: the map it matched against was built at
+/// poses no better than the filter's, which the score surface cannot know.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MatchNoise {
+    /// Added to the standard deviation of each position measurement, micrometres.
+    pub position_um: u32,
+    /// Added to the standard deviation of the heading measurement, millidegrees.
+    pub heading_mdeg: u32,
+    /// The match's own standard deviations are multiplied by this, per cent.
+    pub scale_pct: u32,
+}
+
+impl MatchNoise {
+    /// The seed's: a match's spread doubled, plus 3 mm and 0.3 degrees.
+    pub const SEED: MatchNoise = MatchNoise {
+        position_um: 3_000,
+        heading_mdeg: 300,
+        scale_pct: 200,
+    };
+}
+
+/// Matches used and refused since start, by cause.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MatchCounters {
+    /// Matches applied.
+    pub used: u32,
+    /// Sweeps with no beam end.
+    pub empty: u32,
+    /// Sweeps with too few beam ends.
+    pub too_few_points: u32,
+    /// Sweeps whose ends fell on nothing the map knows.
+    pub no_fit: u32,
+    /// Matches that pinned nothing.
+    pub nothing_pinned: u32,
+    /// Matches beyond the gate.
+    pub gate: u32,
+    /// Sweeps whose moment the history no longer reaches, or a window the footprint
+    /// cannot hold.
+    pub other: u32,
+}
+
+impl MatchCounters {
+    /// Counts one outcome.
+    pub fn count(&mut self, outcome: Result<(), MatchRefusal>) {
+        let c = match outcome {
+            Ok(()) => &mut self.used,
+            Err(MatchRefusal::EmptySweep) => &mut self.empty,
+            Err(MatchRefusal::TooFewPoints) => &mut self.too_few_points,
+            Err(MatchRefusal::NoFit) => &mut self.no_fit,
+            Err(MatchRefusal::NothingPinned) => &mut self.nothing_pinned,
+            Err(MatchRefusal::Gate) => &mut self.gate,
+            Err(MatchRefusal::Window | MatchRefusal::TooOld) => &mut self.other,
+        };
+        *c = c.saturating_add(1);
+    }
+}
+
+/// One scalar measurement: a row over x, y and heading (Q16, each entry within 1.0),
+/// the innovation and its noise, in covariance units.
+#[derive(Clone, Copy)]
+struct Scalar {
+    h: [(State, i32); 3],
+    nu: i64,
+    r: i64,
+}
+
+/// A component of the match: across its wider spread, along it, or the heading.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Component {
+    Across = 0,
+    Along = 1,
+    Heading = 2,
+}
+
+/// `h a` for a sparse Q16 row `h`.
+fn dot(h: &[(State, i32)], a: &[i64; N]) -> i64 {
+    h.iter()
+        .map(|&(j, v)| mul_shift(a[j as usize], i64::from(v), 16))
+        .sum()
+}
+
+/// `nu^2 / s` in Q8, saturating.
+fn normalised_square_q8(nu: i64, s: &Reciprocal) -> i64 {
+    if fits_i32(nu) {
+        s.times(nu * nu, 8)
+    } else {
+        i64::MAX
+    }
+}
+
+/// `x / d` in Q16 (`d > 0`).
+fn ratio_q16(x: i64, d: i64) -> Option<i64> {
+    Some(Reciprocal::of(d)?.times(x, 16))
+}
+
+/// The match in the filter's units along its components: innovations, their covariance
+/// (inflated by `noise`) and each component's row over x, y and heading (Q16).
+struct Components {
+    nu: [i64; 3],
+    c: [[i64; 3]; 3],
+    rows: [[i64; 3]; 3],
+}
+
+impl Components {
+    fn of(matched: &Match, noise: &MatchNoise) -> Components {
+        let then = &matched.prediction;
+        let m = &matched.covariance;
+        let dx = i64::from(matched.pose.x_um) - i64::from(then.x_um);
+        let dy = i64::from(matched.pose.y_um) - i64::from(then.y_um);
+        let dh = (matched.pose.heading - then.heading).signed_bits();
+        // Along the wider spread (sin a, cos a), across it (cos a, -sin a); Q16.
+        let (s, co) = (i64::from(matched.wide.sin()), i64::from(matched.wide.cos()));
+        let units = [(co, -s), (s, co)];
+        // The match's covariance in these components: um^2, um mdeg, mdeg^2.
+        let pos = |u: (i64, i64), v: (i64, i64)| {
+            mul_shift(m.xx_um2, u.0 * v.0, 32)
+                + mul_shift(m.xy_um2, u.0 * v.1 + u.1 * v.0, 32)
+                + mul_shift(m.yy_um2, u.1 * v.1, 32)
+        };
+        let cross =
+            |u: (i64, i64)| mul_shift(m.xh_um_mdeg, u.0, 16) + mul_shift(m.yh_um_mdeg, u.1, 16);
+        let raw = [
+            [
+                pos(units[0], units[0]),
+                pos(units[0], units[1]),
+                cross(units[0]),
+            ],
+            [
+                pos(units[1], units[0]),
+                pos(units[1], units[1]),
+                cross(units[1]),
+            ],
+            [cross(units[0]), cross(units[1]), m.hh_mdeg2],
+        ];
+        // Scaled (the correlations kept), the floors added to the variances, and into the
+        // filter's units: position 1/16 mm, heading 2^-16 rad.
+        let scale = i64::from(noise.scale_pct);
+        let floors = [
+            square(i64::from(noise.position_um)),
+            square(i64::from(noise.position_um)),
+            square(i64::from(noise.heading_mdeg)),
+        ];
+        let to_filter = |v: i64, i: usize| {
+            if i == 2 {
+                units::heading_from_mdeg(v)
+            } else {
+                units::position_from_um(v)
+            }
+        };
+        let mut c = [[0i64; 3]; 3];
+        for (i, row) in c.iter_mut().enumerate() {
+            for (j, out) in row.iter_mut().enumerate() {
+                let mut v = raw[i][j] * scale / 100 * scale / 100;
+                if i == j {
+                    v += floors[i];
+                }
+                *out = to_filter(to_filter(v, i), j);
+            }
+        }
+        let along_um = |u: (i64, i64)| mul_shift(dx, u.0, 16) + mul_shift(dy, u.1, 16);
+        Components {
+            nu: [
+                units::position_from_um(along_um(units[0])),
+                units::position_from_um(along_um(units[1])),
+                units::heading_from_bits(i64::from(dh)),
+            ],
+            c,
+            rows: [[co, -s, 0], [s, co, 0], [0, 0, 1 << 16]],
+        }
+    }
+
+    /// The chosen components as independent scalar measurements (the match's covariance
+    /// factored as `L D L^T`, each measurement less what the earlier ones explain), in
+    /// `order`. `None` if a variance left is not positive.
+    fn whitened(&self, order: &[Component]) -> Option<([Scalar; 3], usize)> {
+        let n = order.len().min(3);
+        let idx = |k: usize| order.get(k).map_or(0, |&c| c as usize);
+        let c = |i: usize, j: usize| self.c[idx(i)][idx(j)];
+        let mut l = [[0i64; 3]; 3];
+        let mut d = [0i64; 3];
+        for i in 0..n {
+            for j in 0..i {
+                // L_ij = (C_ij - sum_k<j L_ik L_jk D_k) / D_j
+                let mut v = c(i, j);
+                for k in 0..j {
+                    v -= mul_shift(mul_shift(l[i][k], l[j][k], 16), d[k], 16);
+                }
+                l[i][j] = ratio_q16(v, d[j])?;
+            }
+            let mut v = c(i, i);
+            for k in 0..i {
+                v -= mul_shift(mul_shift(l[i][k], l[i][k], 16), d[k], 16);
+            }
+            if v <= 0 {
+                return None;
+            }
+            d[i] = v;
+        }
+        let mut out = [Scalar {
+            h: [(State::X, 0), (State::Y, 0), (State::Heading, 0)],
+            nu: 0,
+            r: 1,
+        }; 3];
+        let mut nus = [0i64; 3];
+        let mut rows = [[0i64; 3]; 3];
+        for i in 0..n {
+            let mut nu = self.nu[idx(i)];
+            let mut row = self.rows[idx(i)];
+            for k in 0..i {
+                nu -= mul_shift(l[i][k], nus[k], 16);
+                for (r, e) in row.iter_mut().zip(rows[k]) {
+                    *r -= mul_shift(l[i][k], e, 16);
+                }
+            }
+            nus[i] = nu;
+            rows[i] = row;
+            // Rows within 1.0: a larger one is scaled down with its innovation and noise.
+            let big = row.iter().map(|e| e.abs()).max().unwrap_or(0);
+            let (row, nu, r) = if big > 1 << 16 {
+                let f = Reciprocal::of(big)?;
+                let shrink = |v: i64| f.times(v, 16);
+                (row.map(shrink), shrink(nu), shrink(shrink(d[i])))
+            } else {
+                (row, nu, d[i])
+            };
+            let e = |k: usize| {
+                row.get(k)
+                    .map_or(0, |&v| v.clamp(-(1 << 16), 1 << 16) as i32)
+            };
+            out[i] = Scalar {
+                h: [(State::X, e(0)), (State::Y, e(1)), (State::Heading, e(2))],
+                nu,
+                r: r.max(1),
+            };
+        }
+        Some((out, n))
+    }
+}
+
+impl Estimator {
+    /// Updates the filter from `matched`, the sweep's pose at its newest scan's moment
+    /// against `matched.prediction`, the pose believed then. Returns the corrected pose
+    /// of that moment, or why the match was refused.
+    pub fn apply_match(
+        &mut self,
+        matched: &Match,
+        noise: &MatchNoise,
+    ) -> Result<Pose, MatchRefusal> {
+        use Component::{Across, Along, Heading};
+        let then = matched.prediction;
+        let parts = Components::of(matched, noise);
+        // The heading second: a match that cannot place the robot along a wall still
+        // turns it.
+        let order: &[Component] = match matched.pins {
+            Pins::All => &[Across, Heading, Along],
+            Pins::AllButAlong(_) => &[Across, Heading],
+            Pins::AcrossOnly(_) => &[Across],
+            Pins::PositionOnly => &[Across, Along],
+            Pins::HeadingOnly => &[Heading],
+        };
+        let (scalars, n) = parts.whitened(order).ok_or(MatchRefusal::NothingPinned)?;
+        let scalars = scalars.get(..n).unwrap_or(&[]);
+        // Each pair is gated given the ones before; one beyond the gate refuses the whole
+        // match, so the pairs go into a copy first (a 6 x 6 matrix: a few hundred bytes).
+        let mut fine = [0i64; N];
+        let mut trial = self.clone();
+        for pair in scalars.chunks(2) {
+            trial.update_pair(pair[0], pair.get(1).copied(), &mut fine)?;
+        }
+        *self = trial;
+        self.bound_variances();
+        let [fx, fy, fh, gs, gb, fs] = fine;
+        self.correct_calibration([gs, gb, fs]);
+        let shift = |um: i32, fine: i64| {
+            (i64::from(um) + units::um_from_fine_position(fine))
+                .clamp(i32::MIN as i64, i32::MAX as i64) as i32
+        };
+        Ok(Pose {
+            x_um: shift(then.x_um, fx),
+            y_um: shift(then.y_um, fy),
+            heading: then.heading + Angle::from_bits(units::bits_from_fine_heading(fh) as u32),
+        })
+    }
+
+    /// One or two scalar measurements as one update, the second conditioned on the first
+    /// (as a tag's range and bearing), gated on their joint chi-square; adds the state
+    /// correction, in fine units, to `fine`.
+    fn update_pair(
+        &mut self,
+        first: Scalar,
+        second: Option<Scalar>,
+        fine: &mut [i64; N],
+    ) -> Result<(), MatchRefusal> {
+        // The state corrections of an earlier pair move the innovations of this one.
+        let moved = |m: &Scalar| {
+            let shift: i64 =
+                m.h.iter()
+                    .map(|&(j, v)| mul_shift(fine[j as usize], i64::from(v), 16 + FINE_SHIFT))
+                    .sum();
+            Scalar {
+                nu: m.nu - shift,
+                ..*m
+            }
+        };
+        let first = moved(&first);
+        let a1 = self.p.times_unit_row(&first.h);
+        let s1 = dot(&first.h, &a1).saturating_add(first.r);
+        let inv1 = Reciprocal::of(s1).ok_or(MatchRefusal::Gate)?;
+        let mut chi2 = normalised_square_q8(first.nu, &inv1);
+        let (a2, inv2, nu2) = match second.map(|m| moved(&m)) {
+            Some(m) => {
+                let a = self.p.times_unit_row(&m.h);
+                let s_cross = dot(&first.h, &a);
+                let s2 = dot(&m.h, &a).saturating_add(m.r);
+                let k = inv1.times(s_cross, 16);
+                let nu = m.nu.saturating_sub(mul_shift(k, first.nu, 16));
+                let s2 = s2.saturating_sub(mul_shift(k, s_cross, 16));
+                let mut given = a;
+                for (g, r) in given.iter_mut().zip(a1) {
+                    *g = g.saturating_sub(mul_shift(k, r, 16));
+                }
+                let inv = Reciprocal::of(s2).ok_or(MatchRefusal::Gate)?;
+                chi2 = chi2.saturating_add(normalised_square_q8(nu, &inv));
+                (given, inv, nu)
+            }
+            None => ([0; N], inv1, 0),
+        };
+        if chi2 > i64::from(self.config.gate_chi2_q8) {
+            return Err(MatchRefusal::Gate);
+        }
+        let [k1, k2] = self.p.update([(&a1, &inv1), (&a2, &inv2)]);
+        for ((f, g1), g2) in fine.iter_mut().zip(k1).zip(k2) {
+            *f = f
+                .saturating_add(mul_shift(g1, first.nu, GAIN_SHIFT - FINE_SHIFT))
+                .saturating_add(mul_shift(g2, nu2, GAIN_SHIFT - FINE_SHIFT));
+        }
+        Ok(())
+    }
+}

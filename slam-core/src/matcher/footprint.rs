@@ -1,0 +1,104 @@
+//! The coarse level of the search: for each beam end at one heading, the few cells that
+//! every translation of the window can draw its score from, looked up once, and their
+//! maximum.
+//!
+//! Cartographer prunes its search with grids max-pooled over growing blocks. Here the
+//! translation window (a few centimetres) is about one 5 cm cell wide, so every end's
+//! window falls in a block of at most `FOOTPRINT` x `FOOTPRINT` cells: those are looked up
+//! once per end and heading, their maximum bounds what any translation can score (the
+//! max-pool over the window), and the fine level spreads the same lookups over the
+//! translations instead of looking each one up again. A pooled copy of the whole grid would
+//! cost as much RAM as the grid (83 KB in a 10 m room) and be stale after every tick.
+//!
+//! An end scores the bilinear interpolation of its four nearest cells' scores (as Hector's
+//! map access): with 5 cm cells and 1 cm steps, a nearest-cell score is flat over a cell
+//! and the surface a plateau that pins nothing finer than the cell.
+
+use super::score::EndpointScores;
+use crate::grid::GridMap;
+
+/// Most cells a window may span along each axis, the interpolation's neighbour included.
+pub const FOOTPRINT: usize = 4;
+
+/// Where each translation step puts an end along one axis: the block cell below it and
+/// how far past that cell's centre, in millimetres (`0..cell`).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Steps<const SIDE: usize> {
+    pub cell: [u8; SIDE],
+    pub past: [i16; SIDE],
+}
+
+/// The cells one beam end can draw from over the translation window, with their scores.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Footprint<const SIDE: usize> {
+    /// Score of each cell of the block, `[row][column]` from the block's lower-left.
+    pub scores: [[i16; FOOTPRINT]; FOOTPRINT],
+    /// For each translation step along x, where the end lands.
+    pub x: Steps<SIDE>,
+    /// For each translation step along y, where the end lands.
+    pub y: Steps<SIDE>,
+    /// The largest score in the block: what any translation can give this end.
+    pub max: i16,
+    /// Cells looked up.
+    pub lookups: u32,
+}
+
+impl<const SIDE: usize> Footprint<SIDE> {
+    /// The block for an end at grid-relative `(x, y)` millimetres (from the grid's corner)
+    /// when the window's lowest translation is applied, stepping `step_mm` `SIDE - 1`
+    /// times along each axis. `None` if the window spans more than [`FOOTPRINT`] cells.
+    #[inline]
+    pub fn of<const W: usize, const H: usize>(
+        map: &GridMap<W, H>,
+        scores: &EndpointScores,
+        low: (i32, i32),
+        step_mm: i32,
+    ) -> Option<Self> {
+        let cell = map.geometry().cell_mm;
+        // From the cells' centres: the cell whose centre is below and to the left.
+        let (u, v) = (low.0 - cell / 2, low.1 - cell / 2);
+        let (x, columns) = steps::<SIDE>(u, step_mm, cell)?;
+        let (y, rows) = steps::<SIDE>(v, step_mm, cell)?;
+        let (first_column, first_row) = (u.div_euclid(cell), v.div_euclid(cell));
+        let mut block = [[0i16; FOOTPRINT]; FOOTPRINT];
+        let mut max = i16::MIN;
+        for (r, row) in block.iter_mut().enumerate().take(rows) {
+            for (c, slot) in row.iter_mut().enumerate().take(columns) {
+                let s = scores.of(map, first_column + c as i32, first_row + r as i32);
+                *slot = s;
+                max = max.max(s);
+            }
+        }
+        Some(Footprint {
+            scores: block,
+            x,
+            y,
+            max,
+            lookups: (rows * columns) as u32,
+        })
+    }
+}
+
+/// For each of `SIDE` steps of `step_mm` from `low` (millimetres from the first cell
+/// centre's line), the cell below counted from `low`'s, and how many cells the
+/// interpolation needs (one past the last); no division past the first.
+#[inline]
+fn steps<const SIDE: usize>(low: i32, step_mm: i32, cell: i32) -> Option<(Steps<SIDE>, usize)> {
+    let mut within = low.rem_euclid(cell);
+    let mut index = 0u8;
+    let mut out = Steps {
+        cell: [0u8; SIDE],
+        past: [0i16; SIDE],
+    };
+    for (slot, past) in out.cell.iter_mut().zip(out.past.iter_mut()) {
+        while within >= cell {
+            within -= cell;
+            index += 1;
+        }
+        *slot = index;
+        *past = within as i16;
+        within += step_mm;
+    }
+    let cells = usize::from(index) + 2;
+    (cells <= FOOTPRINT).then_some((out, cells))
+}

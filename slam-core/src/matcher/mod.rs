@@ -1,0 +1,351 @@
+//! Scan-to-map matching: where the last second of depth beams fits the map best, and how
+//! sure that is.
+//!
+//! - `sweep`: the last ticks' scans, placed relative to each other by the odometry;
+//! - `score`: what a beam end scores in an occupied, a free or an unknown cell;
+//! - `footprint`: the coarse level, the cells each end can reach over the window and
+//!   their maximum;
+//! - `search`: the fine level, every candidate pose by lookups and adds;
+//! - `surface`: the pose, covariance and unpinned directions the scores show.
+//!
+//! **Correlative, not Gauss-Newton.** A correlative search (Olson 2009, "Real-time
+//! correlative scan matching"; Cartographer's real-time correlative matcher) scores every
+//! pose of a small window by table lookups and integer adds, which the M0+ does in a cycle
+//! or two each, with a cost known before it starts; and its score surface is a covariance
+//! for free, flat where the sweep cannot tell poses apart. Gauss-Newton on an interpolated
+//! grid (Hector) needs gradients, products and a 3 x 3 solve per iteration in fixed
+//! point, a number of iterations nobody can bound, and a Hessian that says nothing honest
+//! about a corridor. With 5 cm cells and a 1 cm step the window of +-3 cm and +-2 degrees
+//! is about one cell wide, so each beam end's cells are looked up once per heading
+//! (`footprint`) and spread over the translations.
+//!
+//! **The window.** Ten ticks (one second) of scans make one sweep ([`SWEEP_TICKS`]): see
+//! there. The search is `SIDE` steps along x and y and `TURNS` headings, sizes by const
+//! generics; [`SeedMatcher`] is 7 x 7 x 9 (+-3 cm in 1 cm steps, +-2 degrees in
+//! half-degree steps).
+//!
+//! **Evidence kept apart.** A sweep matched against the beams it has just written matches
+//! itself. With matching on, a scan is written into the map only when it leaves the sweep,
+//! at its pose as every match since has corrected it: the map never holds a beam that the
+//! sweep matched against it. The map lags the robot by a second, which costs a second of
+//! mapping at the start and nothing after.
+//!
+//! **The result** carries the tick of the sweep's newest scan: the pose it gives is that
+//! tick's, so a match computed later (on the other core) is applied at that moment
+//! through the pose history, as a tag picture is.
+
+mod footprint;
+mod score;
+mod search;
+mod surface;
+mod sweep;
+
+pub use footprint::FOOTPRINT;
+pub use score::EndpointScores;
+pub use sweep::{Sweep, SweepPoint, SweepScan, SWEEP_TICKS};
+
+use crate::angle::Angle;
+use crate::frame::BEAMS;
+use crate::grid::GridMap;
+use crate::pose::Pose;
+use search::Surface;
+
+/// Most beam ends a sweep of [`SWEEP_TICKS`] ticks holds.
+pub const SWEEP_POINTS: usize = SWEEP_TICKS * BEAMS;
+
+/// The seed's matcher: 7 x 7 translations (+-3 cm) at 9 headings (+-2 degrees).
+pub type SeedMatcher = Matcher<7, 9>;
+
+/// The search's steps, scores and thresholds.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MatcherConfig {
+    /// Translation step, millimetres.
+    pub step_mm: i32,
+    /// Heading step, millidegrees.
+    pub step_mdeg: i32,
+    /// Beam ends at or past this range are not matched, millimetres. Longer than the
+    /// mapping range: a far wall mapped earlier from nearer still pins the pose.
+    pub max_range_mm: u16,
+    /// A sweep with fewer ends than this is refused.
+    pub min_points: u16,
+    /// Scores of a beam end by its cell's class.
+    pub scores: EndpointScores,
+    /// The score drop that halves a candidate's weight in the surface: the larger, the
+    /// wider (more cautious) the covariance.
+    pub halving: i32,
+    /// A direction whose spread reaches this share of the whole window's, in per cent, is
+    /// not pinned.
+    pub unpinned_pct: u8,
+}
+
+impl MatcherConfig {
+    /// The seed's matcher.
+    pub const SEED: MatcherConfig = MatcherConfig {
+        step_mm: 10,
+        step_mdeg: 500,
+        max_range_mm: 4000,
+        min_points: 12,
+        scores: EndpointScores::SEED,
+        halving: 4,
+        unpinned_pct: 40,
+    };
+}
+
+impl Default for MatcherConfig {
+    fn default() -> Self {
+        Self::SEED
+    }
+}
+
+/// A matcher configuration or window the matcher cannot run.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum MatcherConfigError {
+    /// `SIDE` and `TURNS` must be odd (the prediction in the middle) and at least 3.
+    Window,
+    /// Steps must be positive, and the translation window no wider than
+    /// [`FOOTPRINT`] - 2 cells.
+    Step,
+    /// The halving must be positive.
+    Halving,
+}
+
+/// What a match pins.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Pins {
+    /// Position and heading.
+    All,
+    /// Heading, and position across a line but not along it: one flat wall, a corridor.
+    AllButAlong(Angle),
+    /// Position across a line only, not the heading.
+    AcrossOnly(Angle),
+    /// Position, not the heading.
+    PositionOnly,
+    /// Heading only.
+    HeadingOnly,
+}
+
+/// Why a sweep gave no match.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum MatchRefusal {
+    /// No scan in the sweep had a beam end.
+    EmptySweep,
+    /// Fewer beam ends than [`MatcherConfig::min_points`].
+    TooFewPoints,
+    /// No candidate scored above zero: the ends fall on nothing the map knows.
+    NoFit,
+    /// The surface pins no direction.
+    NothingPinned,
+    /// The window spans more cells than the footprint holds.
+    Window,
+    /// The filter found the match beyond its chi-square gate.
+    Gate,
+    /// The sweep's newest scan is older than the pose history reaches.
+    TooOld,
+}
+
+/// The match's covariance: position in micrometres, heading in millidegrees (clockwise
+/// positive, as the heading).
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MatchCovariance {
+    /// Variance of x, um^2.
+    pub xx_um2: i64,
+    /// Covariance of x and y, um^2.
+    pub xy_um2: i64,
+    /// Variance of y, um^2.
+    pub yy_um2: i64,
+    /// Covariance of x and heading, um mdeg.
+    pub xh_um_mdeg: i64,
+    /// Covariance of y and heading, um mdeg.
+    pub yh_um_mdeg: i64,
+    /// Variance of the heading, mdeg^2.
+    pub hh_mdeg2: i64,
+}
+
+/// The work a match did: what the cost is made of.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MatchStats {
+    /// Beam ends matched.
+    pub points: u32,
+    /// Grid cells looked up.
+    pub lookups: u32,
+    /// Scores added into the surface.
+    pub adds: u32,
+    /// Headings whose translations were all scored.
+    pub headings_searched: u32,
+    /// Headings skipped on their bound.
+    pub headings_pruned: u32,
+}
+
+/// Where the sweep fits, for the tick of its newest scan.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Match {
+    /// The tick of the sweep's newest scan: the moment `pose` is for.
+    pub tick: u32,
+    /// The pose the prediction was, at that tick.
+    pub prediction: Pose,
+    /// The surface's weighted mean: the matched pose at that tick.
+    pub pose: Pose,
+    /// The surface's spread about it.
+    pub covariance: MatchCovariance,
+    /// The directions it pins; the covariance along the others is the window's.
+    pub pins: Pins,
+    /// The direction (a line, within a quarter turn of +y) of the position's wider
+    /// spread: the position's covariance has no cross term along it and across it.
+    pub wide: Angle,
+    /// The best candidate's score and the lowest one computed.
+    pub best_score: i32,
+    /// See `best_score`.
+    pub worst_score: i32,
+    /// The work done.
+    pub stats: MatchStats,
+}
+
+/// A correlative matcher over `SIDE` x `SIDE` translations and `TURNS` headings, with its
+/// score surface as scratch (no allocation; `4 * SIDE^2 * TURNS` bytes).
+#[derive(Clone, Debug)]
+pub struct Matcher<const SIDE: usize, const TURNS: usize> {
+    config: MatcherConfig,
+    surface: Surface<SIDE, TURNS>,
+}
+
+impl<const SIDE: usize, const TURNS: usize> Matcher<SIDE, TURNS> {
+    /// A matcher, once its window and configuration are checked against `cell_mm`.
+    pub fn new(config: MatcherConfig, cell_mm: i32) -> Result<Self, MatcherConfigError> {
+        if SIDE < 3 || TURNS < 3 || SIDE.is_multiple_of(2) || TURNS.is_multiple_of(2) || SIDE > 255
+        {
+            return Err(MatcherConfigError::Window);
+        }
+        let span = (SIDE as i32 - 1).saturating_mul(config.step_mm);
+        if config.step_mm < 1
+            || config.step_mdeg < 1
+            || cell_mm < 1
+            || span > (FOOTPRINT as i32 - 2) * cell_mm
+        {
+            return Err(MatcherConfigError::Step);
+        }
+        if config.halving < 1 {
+            return Err(MatcherConfigError::Halving);
+        }
+        Ok(Matcher {
+            config,
+            surface: [[[0; SIDE]; SIDE]; TURNS],
+        })
+    }
+
+    /// The configuration in use.
+    pub fn config(&self) -> &MatcherConfig {
+        &self.config
+    }
+
+    /// Matches `sweep` against `map` around its newest scan's pose, taken as the
+    /// prediction.
+    pub fn match_sweep<const N: usize, const W: usize, const H: usize>(
+        &mut self,
+        sweep: &Sweep<N>,
+        beam_angles: &[Angle; BEAMS],
+        map: &GridMap<W, H>,
+    ) -> Result<Match, MatchRefusal> {
+        let Some(newest) = sweep.newest() else {
+            return Err(MatchRefusal::EmptySweep);
+        };
+        let (tick, prediction) = (newest.tick, newest.pose);
+        let mut points = [SweepPoint::default(); SWEEP_POINTS];
+        let n = sweep.points(beam_angles, self.config.max_range_mm, &mut points);
+        self.match_points(points.get(..n).unwrap_or(&[]), &prediction, tick, map)
+    }
+
+    /// Matches beam ends given relative to `prediction` (the pose at `tick`) against
+    /// `map`.
+    pub fn match_points<const W: usize, const H: usize>(
+        &mut self,
+        points: &[SweepPoint],
+        prediction: &Pose,
+        tick: u32,
+        map: &GridMap<W, H>,
+    ) -> Result<Match, MatchRefusal> {
+        if points.is_empty() {
+            return Err(MatchRefusal::EmptySweep);
+        }
+        if points.len() < usize::from(self.config.min_points) {
+            return Err(MatchRefusal::TooFewPoints);
+        }
+        let c = &self.config;
+        // The surface is in class score times cells squared (the interpolation's weights).
+        let cell = map.geometry().cell_mm;
+        let halving = c.halving.saturating_mul(cell * cell);
+        let cutoff = surface::cutoff(halving);
+        let stats = search::search(map, points, prediction, c, cutoff, &mut self.surface)
+            .ok_or(MatchRefusal::Window)?;
+        let m = surface::moments(&self.surface, halving).ok_or(MatchRefusal::NoFit)?;
+        if m.best <= 0 {
+            return Err(MatchRefusal::NoFit);
+        }
+        let pins = self.pins(&m.covariance_q16, m.best == m.worst)?;
+        let wide = surface::spread(&m.covariance_q16).wide.1;
+
+        let (step_um, step_mdeg) = (i64::from(c.step_mm) * 1000, i64::from(c.step_mdeg));
+        let q8 = |v: i32, unit: i64| (i64::from(v) * unit + 128) >> 8;
+        let dx = q8(m.mean_q8[0], step_um);
+        let dy = q8(m.mean_q8[1], step_um);
+        let dh = q8(m.mean_q8[2], step_mdeg);
+        let pose = Pose {
+            x_um: prediction.x_um.saturating_add(dx as i32),
+            y_um: prediction.y_um.saturating_add(dy as i32),
+            heading: prediction.heading + Angle::from_millidegrees(dh),
+        };
+        let q = &m.covariance_q16;
+        let q16 = |v: i64, a: i64, b: i64| (v * a / 256) * b / 256;
+        let covariance = MatchCovariance {
+            xx_um2: q16(q[0][0], step_um, step_um),
+            xy_um2: q16(q[0][1], step_um, step_um),
+            yy_um2: q16(q[1][1], step_um, step_um),
+            xh_um_mdeg: q16(q[0][2], step_um, step_mdeg),
+            yh_um_mdeg: q16(q[1][2], step_um, step_mdeg),
+            hh_mdeg2: q16(q[2][2], step_mdeg, step_mdeg),
+        };
+        Ok(Match {
+            tick,
+            prediction: *prediction,
+            pose,
+            covariance,
+            pins,
+            wide,
+            best_score: m.best,
+            worst_score: m.worst,
+            stats,
+        })
+    }
+
+    /// The directions the surface's covariance (Q16 steps squared) pins.
+    fn pins(&self, c: &[[i64; 3]; 3], flat: bool) -> Result<Pins, MatchRefusal> {
+        if flat {
+            return Err(MatchRefusal::NothingPinned);
+        }
+        let share = i64::from(self.config.unpinned_pct);
+        let position_limit = surface::uniform_q16((SIDE / 2) as i64) * share / 100;
+        let heading_limit = surface::uniform_q16((TURNS / 2) as i64) * share / 100;
+        let spread = surface::spread(c);
+        let heading = c[2][2] < heading_limit;
+        let (wide, along) = spread.wide;
+        let pins = match (
+            spread.narrow < position_limit,
+            wide < position_limit,
+            heading,
+        ) {
+            (true, true, true) => Pins::All,
+            (true, true, false) => Pins::PositionOnly,
+            (true, false, true) => Pins::AllButAlong(along),
+            (true, false, false) => Pins::AcrossOnly(along),
+            (false, _, true) => Pins::HeadingOnly,
+            (false, _, false) => return Err(MatchRefusal::NothingPinned),
+        };
+        Ok(pins)
+    }
+}

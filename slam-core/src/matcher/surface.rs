@@ -1,0 +1,183 @@
+//! From the score surface to a pose, a covariance and the directions it cannot pin.
+//!
+//! Olson (2009): read the surface as a likelihood, `exp` of the score, and take its mean
+//! and second moment about the mean. In integers the weight of a candidate is a table of
+//! `2^(-d / halving)` for its score `d` below the best: 8 entries a halving, zero past 12
+//! halvings. The mean rather than the best candidate: the map's cells are five times the
+//! search step, so the best is a plateau and its middle is the estimate.
+//!
+//! A direction along which the weighted spread is near the spread of the whole window
+//! (`(R^2 + R) / 3` steps squared for `2R + 1` steps) is one the surface does not pin:
+//! along a flat wall, along a corridor, every heading when the ends fall on nothing known.
+
+use super::search::{Surface, PRUNED};
+use crate::angle::Angle;
+use crate::pose::isqrt;
+
+/// `round(4096 * 2^(-i / 8))`: the weight of a candidate `i / 8` halvings below the best.
+const WEIGHT: [u16; 96] = [
+    4096, 3756, 3444, 3158, 2896, 2656, 2435, 2233, 2048, 1878, 1722, 1579, 1448, 1328, 1218, 1117,
+    1024, 939, 861, 790, 724, 664, 609, 558, 512, 470, 431, 395, 362, 332, 304, 279, 256, 235, 215,
+    197, 181, 166, 152, 140, 128, 117, 108, 99, 91, 83, 76, 70, 64, 59, 54, 49, 45, 41, 38, 35, 32,
+    29, 27, 25, 23, 21, 19, 17, 16, 15, 13, 12, 11, 10, 10, 9, 8, 7, 7, 6, 6, 5, 5, 4, 4, 4, 3, 3,
+    3, 3, 2, 2, 2, 2, 2, 2, 1, 1, 1, 1,
+];
+
+/// Table entries per halving.
+const PER_HALVING: i32 = 8;
+
+/// The variance of rounding to a step, a twelfth of a step squared, in 1/65536 step
+/// squared.
+const QUANTISATION_Q16: i64 = 65536 / 12;
+
+/// The score drop, for a given `halving`, past which a candidate weighs nothing.
+pub(super) const fn cutoff(halving: i32) -> i32 {
+    (WEIGHT.len() as i32 * halving + PER_HALVING - 1) / PER_HALVING
+}
+
+/// The surface's best score, weighted mean and second moment, in search steps.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(super) struct Moments {
+    /// The best score on the surface.
+    pub best: i32,
+    /// The lowest score computed (pruned headings aside).
+    pub worst: i32,
+    /// Mean offset from the prediction, `[x, y, heading]`, in 1/256 of a step.
+    pub mean_q8: [i32; 3],
+    /// Covariance about the mean, in 1/65536 of a step squared, `[x, y, heading]`.
+    pub covariance_q16: [[i64; 3]; 3],
+}
+
+/// The moments of `surface`'s weights; `None` if nothing was scored.
+pub(super) fn moments<const SIDE: usize, const TURNS: usize>(
+    surface: &Surface<SIDE, TURNS>,
+    halving: i32,
+) -> Option<Moments> {
+    let scored = || {
+        surface
+            .iter()
+            .flatten()
+            .flatten()
+            .copied()
+            .filter(|&s| s != PRUNED)
+    };
+    let best = scored().max()?;
+    let worst = scored().min()?;
+    let halving = halving.max(1);
+    let weight = |s: i32| {
+        if s == PRUNED {
+            return 0;
+        }
+        let index = (best - s).saturating_mul(PER_HALVING) / halving;
+        usize::try_from(index)
+            .ok()
+            .and_then(|i| WEIGHT.get(i))
+            .map_or(0, |&w| i64::from(w))
+    };
+    let (half_side, half_turns) = ((SIDE / 2) as i64, (TURNS / 2) as i64);
+    // Each candidate with its offsets from the middle, in steps.
+    let candidates = || {
+        surface.iter().enumerate().flat_map(move |(k, plane)| {
+            plane.iter().enumerate().flat_map(move |(j, row)| {
+                row.iter().enumerate().map(move |(i, &s)| {
+                    (
+                        [
+                            i as i64 - half_side,
+                            j as i64 - half_side,
+                            k as i64 - half_turns,
+                        ],
+                        s,
+                    )
+                })
+            })
+        })
+    };
+    let (mut total, mut sum) = (0i64, [0i64; 3]);
+    for (offset, s) in candidates() {
+        let w = weight(s);
+        total += w;
+        for (acc, o) in sum.iter_mut().zip(offset) {
+            *acc += w * o;
+        }
+    }
+    if total == 0 {
+        return None;
+    }
+    let mean_q8 = sum.map(|s| round_div(s << 8, total) as i32);
+    let mut second = [[0i64; 3]; 3];
+    for (offset, s) in candidates() {
+        let w = weight(s);
+        if w == 0 {
+            continue;
+        }
+        let d: [i64; 3] = core::array::from_fn(|a| (offset[a] << 8) - i64::from(mean_q8[a]));
+        for (row, &da) in second.iter_mut().zip(d.iter()) {
+            for (acc, &db) in row.iter_mut().zip(d.iter()) {
+                *acc += w * da * db;
+            }
+        }
+    }
+    let mut covariance_q16 = second.map(|row| row.map(|v| round_div(v, total)));
+    // A surface sampled a step apart cannot say more than a step: each axis keeps at least
+    // the variance of rounding to it, a twelfth of a step squared.
+    for (a, row) in covariance_q16.iter_mut().enumerate() {
+        if let Some(v) = row.get_mut(a) {
+            *v += QUANTISATION_Q16;
+        }
+    }
+    Some(Moments {
+        best,
+        worst,
+        mean_q8,
+        covariance_q16,
+    })
+}
+
+/// What the surface pins, from its covariance in steps.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(super) struct Spread {
+    /// The position's larger variance, in 1/65536 step squared, and the direction along
+    /// which it lies (a line: within a quarter turn of +y).
+    pub wide: (i64, Angle),
+    /// The position's smaller variance.
+    pub narrow: i64,
+}
+
+/// The principal axes of the position block of `c` (Q16 steps squared).
+pub(super) fn spread(c: &[[i64; 3]; 3]) -> Spread {
+    let (a, b, d) = (c[0][0], c[0][1], c[1][1]);
+    let middle = (a + d) / 2;
+    let half_gap = (a - d) / 2;
+    let root = isqrt((half_gap * half_gap + b * b).unsigned_abs()) as i64;
+    let (wide, narrow) = (middle + root, (middle - root).max(0));
+    // The eigenvector of `wide`: (wide - d, b) or (b, wide - a), whichever is longer.
+    let (u, v) = ((wide - d, b), (b, wide - a));
+    let (x, y) = if u.0.abs() + u.1.abs() >= v.0.abs() + v.1.abs() {
+        u
+    } else {
+        v
+    };
+    let mut along = Angle::of_vector(x, y);
+    let quarter = Angle::QUARTER_TURN.signed_bits();
+    if along.signed_bits() >= quarter || along.signed_bits() < -quarter {
+        along += Angle::HALF_TURN;
+    }
+    Spread {
+        wide: (wide, along),
+        narrow,
+    }
+}
+
+/// The variance, in 1/65536 step squared, of a uniform spread over `2 half + 1` steps.
+pub(super) const fn uniform_q16(half: i64) -> i64 {
+    (half * half + half) * 65536 / 3
+}
+
+/// `a / b` rounded half away from zero, `b > 0`.
+fn round_div(a: i64, b: i64) -> i64 {
+    if a >= 0 {
+        (a + b / 2) / b
+    } else {
+        (a - b / 2) / b
+    }
+}

@@ -1,0 +1,121 @@
+//! A match as a filter update (`Estimator::apply_match`), on hand-made matches: it moves
+//! the pose only along what it pins, by how sure it is against the filter, and a match far
+//! from the prediction is refused by the gate.
+
+use slam_core::estimator::MatchNoise;
+use slam_core::estimator::State;
+use slam_core::matcher::{Match, MatchCovariance, MatchRefusal, MatchStats, Pins};
+use slam_core::{Angle, Estimator, EstimatorConfig, Pose};
+
+/// A match of the pose at (1000, 1000) mm facing +y, moved by `(dx, dy)` um and `dh`
+/// millidegrees, with standard deviations `sd` (um, um, mdeg) and no correlation.
+fn hand_made(dx: i32, dy: i32, dh: i64, sd: (i64, i64, i64), pins: Pins) -> Match {
+    let prediction = Pose::from_mm_mdeg(1000, 1000, 0);
+    Match {
+        tick: 7,
+        prediction,
+        pose: Pose {
+            x_um: prediction.x_um + dx,
+            y_um: prediction.y_um + dy,
+            heading: prediction.heading + Angle::from_millidegrees(dh),
+        },
+        covariance: MatchCovariance {
+            xx_um2: sd.0 * sd.0,
+            yy_um2: sd.1 * sd.1,
+            hh_mdeg2: sd.2 * sd.2,
+            ..MatchCovariance::default()
+        },
+        pins,
+        wide: -Angle::QUARTER_TURN,
+        best_score: 1,
+        worst_score: 0,
+        stats: MatchStats::default(),
+    }
+}
+
+/// A filter 10 mm and 1 degree unsure.
+fn unsure() -> Estimator {
+    Estimator::new(EstimatorConfig {
+        initial_position_mm: 10,
+        initial_heading_mdeg: 1000,
+        ..EstimatorConfig::SEED
+    })
+}
+
+/// What the match only widens by the noise's floors: no scaling.
+const NOISE: MatchNoise = MatchNoise {
+    position_um: 1_000,
+    heading_mdeg: 100,
+    scale_pct: 100,
+};
+
+#[test]
+fn a_flat_wall_moves_the_pose_across_it_only() {
+    let mut filter = unsure();
+    let before = filter.covariance().get(State::X, State::X);
+    // A wall along x (the wider spread along x): 20 mm off in x and y, 0.5 degrees.
+    let m = hand_made(
+        20_000,
+        20_000,
+        500,
+        (30_000, 2_000, 300),
+        Pins::AllButAlong(-Angle::QUARTER_TURN),
+    );
+    let corrected = filter.apply_match(&m, &NOISE).expect("within the gate");
+    let moved_x = corrected.x_um - m.prediction.x_um;
+    let moved_y = corrected.y_um - m.prediction.y_um;
+    let turned = (corrected.heading - m.prediction.heading).to_millidegrees();
+    println!("moved {moved_x} um, {moved_y} um, {turned} mdeg");
+    // Across (y): most of the way, the filter being five times less sure than the match.
+    assert!(moved_y > 15_000 && moved_y < 20_000, "{moved_y}");
+    // Along (x): not at all, and the filter no surer of it.
+    assert_eq!(moved_x, 0);
+    assert_eq!(filter.covariance().get(State::X, State::X), before);
+    assert!(turned > 250 && turned <= 500, "{turned}");
+}
+
+#[test]
+fn a_corner_moves_all_three_by_their_certainty() {
+    let mut filter = unsure();
+    let m = hand_made(10_000, -10_000, -400, (2_000, 2_000, 200), Pins::All);
+    let corrected = filter.apply_match(&m, &NOISE).expect("within the gate");
+    let moved_x = corrected.x_um - m.prediction.x_um;
+    let moved_y = corrected.y_um - m.prediction.y_um;
+    let turned = (corrected.heading - m.prediction.heading).to_millidegrees();
+    println!("moved {moved_x} um, {moved_y} um, {turned} mdeg");
+    assert!(moved_x > 8_000 && moved_x <= 10_000, "{moved_x}");
+    assert!((-10_000..-8_000).contains(&moved_y), "{moved_y}");
+    assert!((-400..-300).contains(&turned), "{turned}");
+    // Surer after than before.
+    assert!(
+        filter.covariance().get(State::Y, State::Y) < unsure().covariance().get(State::Y, State::Y)
+    );
+}
+
+#[test]
+fn a_match_far_from_the_prediction_is_gated() {
+    let mut filter = unsure();
+    let before = *filter.covariance();
+    // 15 cm off where the filter is sure to 1 cm and the match to 2 mm.
+    let m = hand_made(150_000, 0, 0, (2_000, 2_000, 200), Pins::All);
+    assert_eq!(filter.apply_match(&m, &NOISE), Err(MatchRefusal::Gate));
+    assert_eq!(filter.covariance(), &before);
+}
+
+#[test]
+fn heading_only_leaves_the_position() {
+    let mut filter = unsure();
+    let m = hand_made(
+        30_000,
+        30_000,
+        600,
+        (40_000, 40_000, 200),
+        Pins::HeadingOnly,
+    );
+    let corrected = filter.apply_match(&m, &NOISE).expect("within the gate");
+    assert_eq!(
+        (corrected.x_um, corrected.y_um),
+        (m.prediction.x_um, m.prediction.y_um)
+    );
+    assert!((corrected.heading - m.prediction.heading).to_millidegrees() > 400);
+}
