@@ -843,4 +843,42 @@ proptest! {
         let (out, _) = decode_all(&bytes);
         prop_assert_eq!(out.last().cloned(), Some(Ok(Message::Tick(t))));
     }
+
+    #[test]
+    fn arbitrary_inputs_round_trip(
+        v in proptest::array::uniform12(any::<u32>()),
+        present in proptest::array::uniform4(any::<bool>()),
+        ranges in proptest::array::uniform8(proptest::option::of(any::<u16>())),
+        tags in proptest::collection::vec((any::<u16>(), any::<i32>(), any::<u32>()), 0..=MAX_TAGS),
+    ) {
+        let mut detections = TagDetections::new();
+        for (id, cx_centipx, distance_mm) in tags {
+            let pushed = detections.push(TagDetection { id, cx_centipx, distance_mm });
+            prop_assert!(pushed.is_ok(), "at most MAX_TAGS");
+        }
+        let m = Message::Inputs(Inputs {
+            tick: v[0],
+            time_ms: v[1],
+            frame: SensorFrame {
+                dt_us: v[2],
+                flow: present[0].then_some(FlowDelta {
+                    forward_counts: v[3] as i32,
+                    right_counts: v[4] as i32,
+                }),
+                gyro: present[1].then_some(GyroRate { rate_mdps: v[5] as i32 }),
+                depth: present[2].then_some(DepthScan { ranges_mm: ranges }),
+                depth_age_us: v[6],
+                tags: detections,
+                tags_age_us: v[7],
+                external_pose: present[3].then_some(Pose {
+                    x_um: v[8] as i32,
+                    y_um: v[9] as i32,
+                    heading: Angle::from_bits(v[10]),
+                }),
+            },
+        });
+        let bytes = frame(&m);
+        prop_assert!(bytes.len() <= MAX_FRAME_LEN);
+        prop_assert_eq!(decode_all(&bytes).0, std::vec![Ok(m)]);
+    }
 }
