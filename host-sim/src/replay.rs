@@ -11,9 +11,10 @@
 //! The replayed run is written as a telemetry stream by the simulator's own sink
 //! ([`TelemetryWriter`]), so `view`'s decoding, figures and pictures apply to it unchanged.
 //!
-//! A stream that lies is stepped as far as it makes sense and never panics: input frames
-//! whose tick does not follow the last one stepped are skipped (out of order) or stepped
-//! after a gap (frames missing), and both are counted; either ends the bit-for-bit claim.
+//! A stream that lies is stepped as far as it makes sense and never panics: an input frame
+//! whose tick is not after the last one stepped is skipped and counted (the replay stays
+//! whole); one after a gap is stepped, and the missing ticks are counted and named as the
+//! first difference, since the core's state no longer follows the robot's.
 
 use crate::robot::TruePose;
 use crate::run::{slam_config, to_core_pose, PoseMode, GRID_SIDES};
