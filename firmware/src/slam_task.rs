@@ -11,7 +11,8 @@
 //! frame (at most [`MAX_FRAME_LEN`] bytes) in [`TELEMETRY_FRAMES`]. The telemetry task only
 //! moves bytes to the UART. Encoding costs a few hundred microseconds a tick, and the queue
 //! is never waited on: when it is full (the link is behind) a frame is dropped and counted.
-//! The simulator calls the same `Streamer`, so it records the same messages; today it uses
+//! The simulator calls the same `Streamer`, so it records the same messages (the tick's
+//! inputs among them, which `host-sim replay` steps again); today it uses
 //! `Schedule::DEFAULT` (one map chunk a tick) where the robot sends two (see
 //! [`TELEMETRY_SCHEDULE`]), so only the map sweep's pace differs.
 
@@ -66,18 +67,21 @@ fn slam_config() -> SlamConfig {
 /// for a planner.
 pub const REPORT_READERS: usize = 2;
 
-/// The telemetry schedule at 10 Hz: a `Hello` at the first tick and every 5 s, a `Tick`
-/// every tick (and the filter's `Filter` after it), two `MapRows` chunks (four rows of the
-/// 46 x 46 grid) every tick, so the whole map goes round every 1.2 s, and a `Health` every
-/// second. At most about 600 bytes a tick, 6.5 ms of the 921600 baud link.
+/// The telemetry schedule at 10 Hz: a `Hello` at the first tick and every 5 s, each
+/// tick's raw inputs (with the `record-inputs` feature, on by default, so that the run can
+/// be replayed with `host-sim replay`), a `Tick` every tick (and the filter's `Filter`
+/// after it), two `MapRows` chunks (four rows of the 46 x 46 grid) every tick, so the
+/// whole map goes round every 1.2 s, and a `Health` every second. The wire crate's budget
+/// gives the bytes per second; about 7 % of the 921600 baud link.
 pub const TELEMETRY_SCHEDULE: Schedule = Schedule {
     hello_every_ticks: 50,
     health_every_ticks: 10,
     map_chunks_per_tick: 2,
+    inputs: cfg!(feature = "record-inputs"),
 };
 
-/// Frames queued for the link: one tick's worth (at most six) with room to spare.
-pub const TELEMETRY_QUEUE: usize = 8;
+/// Frames queued for the link: one tick's worth (at most seven) with room to spare.
+pub const TELEMETRY_QUEUE: usize = 10;
 
 /// One encoded telemetry frame, delimiter included. `Clone` so the telemetry task can hand
 /// a copy to the USB queue as well as write it to the UART.
@@ -221,6 +225,7 @@ pub async fn slam_task(watchdog: Peri<'static, WATCHDOG>, inputs: &'static Input
         let sensor_health = HEALTH.sensor_health();
         streamer.tick(
             time_ms,
+            &frame,
             &report,
             slam.tag_counters(),
             slam.map(),

@@ -71,9 +71,9 @@ pub const USB_PRODUCT: &str = "BugBot telemetry";
 /// Largest bulk packet at full speed, in bytes: the most one `write_packet` may carry.
 const MAX_PACKET_LEN: u16 = 64;
 
-/// Frames queued for USB: one tick's worth (at most six) with room to spare, as for the
-/// UART. 8 frames of up to `MAX_FRAME_LEN` bytes: about 1.2 KB of RAM.
-pub const USB_QUEUE: usize = 8;
+/// Frames queued for USB: one tick's worth (at most seven) with room to spare, as for the
+/// UART. 10 frames of up to `MAX_FRAME_LEN` bytes: about 2 KB of RAM.
+pub const USB_QUEUE: usize = 10;
 
 /// A packet that waits longer than this for the host means it stopped reading; the frames
 /// queued meanwhile are stale and are dropped once it reads again. Three ticks.

@@ -39,6 +39,10 @@ pub enum Command {
     /// Decode a telemetry stream (a file, or live from the robot's serial port until end
     /// of file, Ctrl-C or --seconds), print what it held and draw the same two pictures.
     View(ViewArgs),
+    /// Step a recorded stream's input frames through the core again: with the robot's own
+    /// settings check that the replay is the robot's run bit for bit, with others (--pose)
+    /// see what they would have done; print and draw what `view` does.
+    Replay(ReplayArgs),
     /// The simulator as the emulated robot's world: JSON lines on stdin and stdout.
     Serve(ServeArgs),
     /// Simulated seconds per wall second on a route, and host nanoseconds per `step`.
@@ -101,6 +105,34 @@ pub struct ViewArgs {
     /// Write the final map as a ROS map_server pair, DIR/map.pgm and DIR/map.yaml.
     #[arg(long, value_name = "DIR", value_hint = ValueHint::DirPath)]
     pub export_map: Option<PathBuf>,
+}
+
+/// `host-sim replay`.
+#[derive(Debug, Args)]
+pub struct ReplayArgs {
+    /// A recorded telemetry file with input frames (firmware with `record-inputs`, or
+    /// `host-sim run --telemetry`).
+    #[arg(value_name = "FILE", value_hint = ValueHint::FilePath)]
+    pub file: PathBuf,
+    /// The scenario the robot was built for: its grid, tags, sensors' calibration and
+    /// start configure the core, and its world scores the map [default:
+    /// host-sim/scenarios/seed-mat.toml, the firmware's, from the workspace root or this
+    /// crate's source].
+    #[arg(long, value_name = "SCENARIO.toml", value_hint = ValueHint::FilePath)]
+    pub scenario: Option<PathBuf>,
+    /// The localiser to replay with (default: the stream's own, from its `Hello`); truth
+    /// is refused, a recording has none.
+    #[arg(long, value_name = "MODE", value_parser = pose_mode())]
+    pub pose: Option<PoseMode>,
+    /// Score each tick's pose against this truth (as `view --truth`).
+    #[arg(long, value_name = "TRUTH.jsonl", value_hint = ValueHint::FilePath)]
+    pub truth: Option<PathBuf>,
+    /// Print the replay and the figures as one JSON object.
+    #[arg(long)]
+    pub json: bool,
+    /// Draw the replayed run's map and chart into DIR, creating it.
+    #[arg(long, value_name = "DIR", value_hint = ValueHint::DirPath)]
+    pub out: Option<PathBuf>,
 }
 
 /// `host-sim serve`.

@@ -42,6 +42,7 @@
 pub mod consistency;
 pub mod picture;
 pub mod record;
+pub mod replay;
 pub mod robot;
 pub mod rosmap;
 pub mod route;

@@ -10,13 +10,18 @@
 //! `--scenario FILE` the map against that scenario's world, giving `run`'s figures under
 //! `run`'s names.
 //!
+//! `replay FILE` steps a recorded stream's input frames through the core again (see
+//! `host_sim::replay`): with the robot's own settings it checks the replay against what the
+//! robot sent, bit for bit; with `--pose` it shows what another localiser would have done.
+//!
 //! Exit codes: 0 done, 1 the pictures or the stream could not be written, 2 bad
-//! arguments, scenario or stream.
+//! arguments, scenario or stream, 3 a replay with the robot's settings that differs from
+//! the robot's run.
 
 mod cli;
 
 use clap::Parser;
-use cli::{BenchArgs, Cli, Command, RunArgs, ServeArgs, ViewArgs};
+use cli::{BenchArgs, Cli, Command, ReplayArgs, RunArgs, ServeArgs, ViewArgs};
 use host_sim::record::TrueCalibration;
 use host_sim::run::{run, run_with_telemetry, Figures, PoseMode};
 use host_sim::telemetry::estimator_line;
@@ -54,6 +59,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Run(args) => cmd_run(args),
         Command::View(args) => cmd_view(args),
+        Command::Replay(args) => cmd_replay(args),
         Command::Serve(args) => cmd_serve(args),
         Command::Bench(args) => cmd_bench(args),
     };
@@ -226,6 +232,75 @@ fn cmd_view(args: ViewArgs) -> Result<(), Failure> {
         }
     }
     Ok(())
+}
+
+/// The scenario the firmware is built for: from the workspace root when run there, else
+/// from this crate's source tree.
+fn firmware_scenario() -> PathBuf {
+    let relative = Path::new("host-sim/scenarios/seed-mat.toml");
+    if relative.is_file() {
+        relative.to_path_buf()
+    } else {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/seed-mat.toml")
+    }
+}
+
+/// Replays a recorded stream's inputs, compares, prints and draws as `view` does.
+fn cmd_replay(args: ReplayArgs) -> Result<(), Failure> {
+    let shown = args.file.display().to_string();
+    let scenario = load(&args.scenario.unwrap_or_else(firmware_scenario))?;
+    let bytes =
+        std::fs::read(&args.file).map_err(|e| Failure(2, format!("cannot read {shown}: {e}")))?;
+    let replayed = host_sim::replay::replay(&scenario, &bytes, args.pose)
+        .map_err(|e| Failure(2, format!("{shown}: {e}")))?;
+    let mut recording = Recording::new();
+    if let Some(path) = &args.truth {
+        recording.recorder = recording.recorder.with_truth(load_truth(path)?);
+    }
+    recording.recorder = recording
+        .recorder
+        .with_world(host_sim::world::World::new(&scenario))
+        .with_true_calibration(TrueCalibration::of(&scenario));
+    recording.feed(&replayed.stream);
+    let summary = recording.summary();
+    let r = &replayed.summary;
+    if args.json {
+        #[derive(serde::Serialize)]
+        struct Out<'a> {
+            replay: &'a host_sim::replay::ReplaySummary,
+            view: &'a host_sim::telemetry::Summary,
+        }
+        let json = serde_json::to_string(&Out {
+            replay: r,
+            view: &summary,
+        })
+        .map_err(|e| Failure(1, e.to_string()))?;
+        say!("{json}");
+    } else {
+        say!("{r}");
+        say!("{summary}");
+    }
+    if let Some(dir) = &args.out {
+        let stem = format!(
+            "{}-replay-{}",
+            args.file.file_stem().map_or("telemetry".to_string(), |s| s
+                .to_string_lossy()
+                .into_owned()),
+            r.pose
+        );
+        let record = recording.recorder.record(&stem);
+        let (map, chart) = write_pictures(&record, dir, &stem)?;
+        if !args.json {
+            say!("pictures: {} {}", map.display(), chart.display());
+        }
+    }
+    match &r.bit_for_bit {
+        Some(b) if !b.identical() => Err(Failure(
+            3,
+            format!("{shown}: the replay with the robot's settings is not the robot's run"),
+        )),
+        _ => Ok(()),
+    }
 }
 
 /// Reads a truth file (see `host_sim::truth`); a bad line is named.

@@ -376,7 +376,7 @@ fn run_sized<const W: usize, const H: usize>(
         let report = slam.step(&frame);
         if let Some(t) = telemetry.as_mut() {
             let time_ms = (ticks.len() as f64 * TICK_S * 1000.0).round() as u32;
-            t.tick(time_ms, &report, slam.tag_counters(), slam.map());
+            t.tick(time_ms, &frame, &report, slam.tag_counters(), slam.map());
         }
         frames.push(frame);
         let fix_taken = report.fix == FixOutcome::Taken;

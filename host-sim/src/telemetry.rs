@@ -22,7 +22,8 @@ use crate::truth::{route_start_s, truth_at, TruthSample};
 use crate::world::World;
 use serde::Serialize;
 use slam_core::{
-    Counters, FixOutcome, GridGeometry, GridMap, Localiser, Occupancy, StepReport, TagCounters,
+    Counters, FixOutcome, GridGeometry, GridMap, Localiser, Occupancy, SensorFrame, StepReport,
+    TagCounters,
 };
 use std::fmt;
 use std::io::{self, Read};
@@ -62,8 +63,8 @@ impl TelemetryWriter {
         }
     }
 
-    /// One tick's messages, after `step` returned `report` (`tags`: the core's
-    /// `tag_counters()`); `time_ms` since the start.
+    /// One tick's messages, after `step` was given `frame` and returned `report` (`tags`:
+    /// the core's `tag_counters()`); `time_ms` since the start.
     ///
     /// The simulator has no buses, so its health is what the core saw: a tick without a
     /// depth scan counts as a depth timeout, a tick without flow as flow with no surface,
@@ -71,6 +72,7 @@ impl TelemetryWriter {
     pub fn tick<const W: usize, const H: usize>(
         &mut self,
         time_ms: u32,
+        frame: &SensorFrame,
         report: &StepReport,
         tags: TagCounters,
         map: &GridMap<W, H>,
@@ -85,7 +87,7 @@ impl TelemetryWriter {
         };
         let (bytes, errors) = (&mut self.bytes, &mut self.encode_errors);
         self.streamer
-            .tick(time_ms, report, tags, map, &health, |m| {
+            .tick(time_ms, frame, report, tags, map, &health, |m| {
                 push(bytes, errors, m)
             });
     }
@@ -139,6 +141,8 @@ pub struct TelemetryRecorder {
     refused: Option<RefusedHellos>,
     map_rows: u32,
     map_rows_refused: u32,
+    /// `Inputs` messages: each tick's raw inputs, which only `host-sim replay` reads.
+    inputs: u32,
     /// `Filter` messages whose tick is not the latest `Tick`'s (its `Tick` was lost).
     filters_unmatched: u32,
     restarts: u32,
@@ -185,6 +189,8 @@ impl TelemetryRecorder {
             Message::MapRows(r) => self.take_map_rows(r),
             Message::Health(h) => self.health = Some(*h),
             Message::Filter(f) => self.take_filter(f),
+            // The raw inputs change nothing the robot reported; `replay` steps them.
+            Message::Inputs(_) => self.inputs += 1,
         }
     }
 
@@ -419,6 +425,7 @@ impl TelemetryRecorder {
             hellos_refused: self.refused.clone(),
             map_rows: self.map_rows,
             map_rows_refused: self.map_rows_refused,
+            inputs: self.inputs,
             filters_unmatched: self.filters_unmatched,
             restarts: self.restarts,
             estimator: estimator_figures(&self.ticks, self.true_calibration),
@@ -520,6 +527,8 @@ pub struct Summary {
     pub map_rows: u32,
     /// Map chunks refused: before any `Hello`, or outside the grid.
     pub map_rows_refused: u32,
+    /// Ticks' raw inputs received (what `host-sim replay` steps again).
+    pub inputs: u32,
     /// `Filter` messages that did not follow their `Tick` (dropped: its `Tick` was lost).
     pub filters_unmatched: u32,
     /// Times the tick number went backwards (the robot reset).
@@ -664,9 +673,10 @@ impl fmt::Display for Summary {
         let b = &self.bad_frames;
         write!(
             f,
-            "frames: {} good, {} bad ({} overlong, {} COBS, {} short, {} CRC, {} version, {} body); map chunks {} placed, {} refused; {} restarts",
+            "frames: {} good, {} bad ({} overlong, {} COBS, {} short, {} CRC, {} version, {} body); map chunks {} placed, {} refused; {} ticks' inputs; {} restarts",
             self.frames_ok, b.total(), b.overlong, b.bad_cobs, b.too_short, b.bad_crc,
-            b.bad_version, b.bad_body, self.map_rows, self.map_rows_refused, self.restarts
+            b.bad_version, b.bad_body, self.map_rows, self.map_rows_refused, self.inputs,
+            self.restarts
         )
     }
 }

@@ -3,8 +3,9 @@
 
 use proptest::prelude::*;
 use slam_core::{
-    Angle, Calibration, Counters, Evidence, FixOutcome, FixRejection, GridGeometry, GridMap,
-    Localiser, Pose, PoseCovariance, SlamConfig, Staleness, StepReport, TagCounters,
+    Angle, Calibration, Counters, DepthScan, Evidence, FixOutcome, FixRejection, FlowDelta,
+    GridGeometry, GridMap, GyroRate, Localiser, Pose, PoseCovariance, SensorFrame, SlamConfig,
+    Staleness, StepReport, TagCounters, TagDetection, TagDetections, BEAMS, MAX_TAGS,
 };
 use wire::framing::{cobs_encode, crc16};
 use wire::telemetry::*;
@@ -15,7 +16,7 @@ fn sealed(raw: &[u8]) -> Vec<u8> {
     let mut raw = raw.to_vec();
     let crc = crc16(&raw);
     raw.extend_from_slice(&crc.to_le_bytes());
-    let mut stuffed = std::vec![0u8; 32];
+    let mut stuffed = std::vec![0u8; 256];
     let n = cobs_encode(&raw, &mut stuffed).expect("room");
     stuffed.truncate(n);
     stuffed.push(0);
@@ -123,6 +124,78 @@ fn health() -> Message {
     })
 }
 
+/// A frame with every input present.
+fn sensor_frame() -> SensorFrame {
+    let mut tags = TagDetections::new();
+    for (id, cx) in [(11u16, 16_000i32), (12, -2_500)] {
+        let _ = tags.push(TagDetection {
+            id,
+            cx_centipx: cx,
+            distance_mm: 900 + u32::from(id),
+        });
+    }
+    let mut ranges_mm = [Some(700u16); BEAMS];
+    ranges_mm[3] = None;
+    SensorFrame {
+        dt_us: 100_012,
+        flow: Some(FlowDelta {
+            forward_counts: 41,
+            right_counts: -3,
+        }),
+        gyro: Some(GyroRate { rate_mdps: -1_234 }),
+        depth: Some(DepthScan { ranges_mm }),
+        depth_age_us: 33_000,
+        tags,
+        tags_age_us: 61_000,
+        external_pose: Some(Pose::from_mm_mdeg(700, 500, 90_000)),
+    }
+}
+
+fn inputs() -> Message {
+    Message::Inputs(Inputs {
+        tick: 42,
+        time_ms: 4_200,
+        frame: sensor_frame(),
+    })
+}
+
+/// An `Inputs` whose every field takes the most bytes.
+fn worst_inputs() -> Message {
+    let mut tags = TagDetections::new();
+    for _ in 0..MAX_TAGS {
+        let _ = tags.push(TagDetection {
+            id: u16::MAX,
+            cx_centipx: i32::MIN,
+            distance_mm: u32::MAX,
+        });
+    }
+    Message::Inputs(Inputs {
+        tick: u32::MAX,
+        time_ms: u32::MAX,
+        frame: SensorFrame {
+            dt_us: u32::MAX,
+            flow: Some(FlowDelta {
+                forward_counts: i32::MIN,
+                right_counts: i32::MIN,
+            }),
+            gyro: Some(GyroRate {
+                rate_mdps: i32::MIN,
+            }),
+            depth: Some(DepthScan {
+                ranges_mm: [Some(u16::MAX); BEAMS],
+            }),
+            depth_age_us: u32::MAX,
+            tags,
+            tags_age_us: u32::MAX,
+            external_pose: Some(Pose {
+                x_um: i32::MIN,
+                y_um: i32::MIN,
+                heading: Angle::from_bits(u32::MAX),
+            }),
+        },
+    })
+}
+
 fn frame(m: &Message) -> Vec<u8> {
     let mut buf = [0u8; MAX_FRAME_LEN];
     let n = encode(m, &mut buf).expect("encodes");
@@ -145,11 +218,11 @@ fn health_frame_fixture() {
         gyro_start_failures: 2,
         ..SensorHealth::default()
     });
-    let stuffed = sealed(&[0xB4, 3, 0, 1, 0xAC, 0x02, 0, 0, 0, 0, 0, 0, 0, 0, 2]);
+    let stuffed = sealed(&[0xB5, 3, 0, 1, 0xAC, 0x02, 0, 0, 0, 0, 0, 0, 0, 0, 2]);
     assert_eq!(frame(&h), stuffed);
     // No zero before the delimiter.
     assert!(!stuffed[..stuffed.len() - 1].contains(&0));
-    assert_eq!(stuffed[0], 3, "first COBS code: b4 03 then a zero");
+    assert_eq!(stuffed[0], 3, "first COBS code: b5 03 then a zero");
 }
 
 #[test]
@@ -178,7 +251,7 @@ fn filter_frame_fixture() {
         },
     });
     let raw = [
-        0xB4, 4, 2, 0xD8, 0x04, 1, 0, 0, 0, 0x80, 0x80, 0x08, 3, 0, 0x80, 0x01, 5, 0, 0, 1, 0, 2,
+        0xB5, 4, 2, 0xD8, 0x04, 1, 0, 0, 0, 0x80, 0x80, 0x08, 3, 0, 0x80, 0x01, 5, 0, 0, 1, 0, 2,
     ];
     assert_eq!(frame(&m), sealed(&raw));
     assert_eq!(decode_all(&sealed(&raw)).0, std::vec![Ok(m)]);
@@ -209,7 +282,7 @@ fn hello_carries_the_localiser() {
     if let Some(last) = body.last_mut() {
         *last = 3;
     }
-    let mut raw = std::vec![0xB4];
+    let mut raw = std::vec![0xB5];
     raw.extend(body);
     assert_eq!(
         decode_all(&sealed(&raw)).0,
@@ -218,8 +291,77 @@ fn hello_carries_the_localiser() {
 }
 
 #[test]
+fn inputs_frame_fixture() {
+    // Tick 1 at 2 ms, dt 3 us, every input stale: each option a 0 byte, no tags.
+    let m = Message::Inputs(Inputs {
+        tick: 1,
+        time_ms: 2,
+        frame: SensorFrame::empty(3),
+    });
+    let raw = [0xB5, 5, 1, 2, 3, 0, 0, 0, 0, 0, 0, 0];
+    assert_eq!(frame(&m), sealed(&raw));
+    assert_eq!(decode_all(&sealed(&raw)).0, std::vec![Ok(m)]);
+    // One tag (id 11, cx -1 zigzagged to 1, 300 mm) and a gyro reading of 5 mdps.
+    let mut tags = TagDetections::new();
+    let _ = tags.push(TagDetection {
+        id: 11,
+        cx_centipx: -1,
+        distance_mm: 300,
+    });
+    let m = Message::Inputs(Inputs {
+        tick: 1,
+        time_ms: 2,
+        frame: SensorFrame {
+            gyro: Some(GyroRate { rate_mdps: 5 }),
+            tags,
+            ..SensorFrame::empty(3)
+        },
+    });
+    let raw = [0xB5, 5, 1, 2, 3, 0, 1, 10, 0, 0, 1, 11, 1, 0xAC, 0x02, 0, 0];
+    assert_eq!(frame(&m), sealed(&raw));
+}
+
+#[test]
+fn inputs_with_more_tags_than_the_core_holds_are_refused() {
+    let mut raw = std::vec![0xB5, 5, 1, 2, 3, 0, 0, 0, 0];
+    raw.push(u8::try_from(MAX_TAGS + 1).unwrap_or(u8::MAX));
+    for _ in 0..=MAX_TAGS {
+        raw.extend([1, 0, 0]);
+    }
+    raw.extend([0, 0]);
+    assert_eq!(
+        decode_all(&sealed(&raw)).0,
+        std::vec![Err(FrameError::Body)]
+    );
+    // The same with the most it holds decodes.
+    let mut raw = std::vec![0xB5, 5, 1, 2, 3, 0, 0, 0, 0];
+    raw.push(u8::try_from(MAX_TAGS).unwrap_or(u8::MAX));
+    for _ in 0..MAX_TAGS {
+        raw.extend([1, 0, 0]);
+    }
+    raw.extend([0, 0]);
+    let (out, _) = decode_all(&sealed(&raw));
+    assert!(
+        matches!(&out[..], [Ok(Message::Inputs(i))] if i.frame.tags.len() == MAX_TAGS),
+        "{out:?}"
+    );
+}
+
+#[test]
 fn round_trip_each_message() {
-    for m in [hello(), tick(), filter_state(), map_rows(), health()] {
+    for m in [
+        hello(),
+        tick(),
+        filter_state(),
+        map_rows(),
+        health(),
+        inputs(),
+        Message::Inputs(Inputs {
+            tick: 0,
+            time_ms: 0,
+            frame: SensorFrame::empty(0),
+        }),
+    ] {
         let bytes = frame(&m);
         assert_eq!(bytes.last(), Some(&0));
         assert!(bytes.len() <= MAX_FRAME_LEN);
@@ -241,7 +383,11 @@ fn worst_case_messages_fit() {
     let body = postcard::to_slice(&big, &mut [0u8; 512])
         .map(|b| b.len())
         .unwrap_or(0);
-    assert_eq!(body, MAX_MESSAGE_LEN);
+    assert!(body < MAX_MESSAGE_LEN, "a full MapRows is not the longest");
+    let body = postcard::to_slice(&worst_inputs(), &mut [0u8; 512])
+        .map(|b| b.len())
+        .unwrap_or(0);
+    assert_eq!(body, MAX_MESSAGE_LEN, "a full Inputs is");
     let mut worst_tick = tick();
     if let Message::Tick(t) = &mut worst_tick {
         t.tick = u32::MAX;
@@ -312,7 +458,8 @@ fn worst_case_messages_fit() {
         h.origin_y_mm = i32::MIN;
     }
     for (m, limit) in [
-        (big, MAX_FRAME_LEN),
+        (big, 142),
+        (worst_inputs(), MAX_FRAME_LEN),
         (worst_tick, 96),
         (worst_filter, 116),
         (Message::Health(all_max), 66),
@@ -343,7 +490,7 @@ fn garbage_between_frames_resynchronises() {
     bytes.extend([1, 2, 3, 4, 5, 0]);
     bytes.extend(frame(&tick()));
     bytes.extend([0, 0, 0]); // empty frames: ignored
-    bytes.extend([0xB4, 0x07, 0]); // stuffing that runs past the end
+    bytes.extend([0xB5, 0x07, 0]); // stuffing that runs past the end
     bytes.extend(frame(&health()));
     let (out, stats) = decode_all(&bytes);
     let good: Vec<Message> = out.iter().filter_map(|r| r.clone().ok()).collect();
@@ -401,11 +548,12 @@ fn every_flipped_bit_is_caught() {
 
 #[test]
 fn wrong_version_and_bad_body_are_told_apart() {
-    // Layouts 1, 2 and 3's health frames: older firmwares'.
+    // Layouts 1 to 4's health frames: older firmwares'.
     for old in [
         std::vec![0xB1, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0],
         std::vec![0xB2, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0],
         std::vec![0xB3, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0],
+        std::vec![0xB4, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0],
     ] {
         assert_eq!(
             decode_all(&sealed(&old)).0,
@@ -414,11 +562,13 @@ fn wrong_version_and_bad_body_are_told_apart() {
     }
 
     for raw in [
-        std::vec![0xB4, 9],                                        // no such variant
-        std::vec![0xB4, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0],             // health cut short
-        std::vec![0xB4, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 7], // a byte left over
-        std::vec![0xB4, 2, 0, 0, 0x81, 0x01],                      // 129 cells announced
-        std::vec![0xB4, 4, 1, 0, 0, 0, 0, 0],                      // filter cut short
+        std::vec![0xB5, 9],                                        // no such variant
+        std::vec![0xB5, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0],             // health cut short
+        std::vec![0xB5, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 7], // a byte left over
+        std::vec![0xB5, 2, 0, 0, 0x81, 0x01],                      // 129 cells announced
+        std::vec![0xB5, 4, 1, 0, 0, 0, 0, 0],                      // filter cut short
+        std::vec![0xB5, 5, 1, 2, 3, 0, 0, 0],                      // inputs cut short
+        std::vec![0xB5, 5, 1, 2, 3, 2],                            // flow option byte 2
     ] {
         assert_eq!(
             decode_all(&sealed(&raw)).0,
@@ -436,12 +586,7 @@ fn overlong_frame_is_dropped_and_the_next_decodes() {
     assert_eq!(out, std::vec![Err(FrameError::Overlong), Ok(health())]);
     assert_eq!(stats.bad_frames.overlong, 1);
     // Exactly the longest legal frame still fits.
-    let longest = CellChunk::from_slice(&[5i8; MAX_CHUNK_CELLS]).unwrap_or_default();
-    let m = Message::MapRows(MapRows {
-        first_row: u16::MAX,
-        first_column: u16::MAX,
-        cells: longest,
-    });
+    let m = worst_inputs();
     let bytes = frame(&m);
     assert_eq!(bytes.len(), MAX_FRAME_LEN);
     assert_eq!(decode_all(&bytes).0, std::vec![Ok(m)]);
@@ -525,6 +670,7 @@ fn the_schedule() {
     for t in 0..51u32 {
         s.tick(
             t * 100,
+            &SensorFrame::empty(100_000),
             &report,
             TagCounters::default(),
             &map,
@@ -540,6 +686,11 @@ fn the_schedule() {
     };
     assert_eq!(count(&hello()), 2); // ticks 0 and 50
     assert_eq!(count(&tick()), 51);
+    assert_eq!(
+        count(&inputs()),
+        51,
+        "the default schedule records the inputs"
+    );
     assert_eq!(count(&filter_state()), 0, "no estimate, no Filter");
     assert_eq!(count(&map_rows()), 51);
     assert_eq!(count(&health()), 6); // ticks 0, 10, ..., 50
@@ -567,6 +718,7 @@ fn a_filter_follows_each_tick_with_an_estimate() {
     let mut sent = Vec::new();
     s.tick(
         0,
+        &SensorFrame::empty(100_000),
         &report,
         expected.tags,
         &map,
@@ -579,13 +731,14 @@ fn a_filter_follows_each_tick_with_an_estimate() {
         kinds,
         std::vec![
             d(&hello()),
+            d(&inputs()),
             d(&tick()),
             d(&filter_state()),
             d(&map_rows()),
             d(&health())
         ]
     );
-    assert_eq!(sent[2], Message::Filter(expected));
+    assert_eq!(sent[3], Message::Filter(expected));
     assert_eq!(
         FilterState::new(&report, expected.tags).map(|f| f.estimate()),
         report.estimate
@@ -689,5 +842,43 @@ proptest! {
         bytes.extend(frame(&Message::Tick(t)));
         let (out, _) = decode_all(&bytes);
         prop_assert_eq!(out.last().cloned(), Some(Ok(Message::Tick(t))));
+    }
+
+    #[test]
+    fn arbitrary_inputs_round_trip(
+        v in proptest::array::uniform12(any::<u32>()),
+        present in proptest::array::uniform4(any::<bool>()),
+        ranges in proptest::array::uniform8(proptest::option::of(any::<u16>())),
+        tags in proptest::collection::vec((any::<u16>(), any::<i32>(), any::<u32>()), 0..=MAX_TAGS),
+    ) {
+        let mut detections = TagDetections::new();
+        for (id, cx_centipx, distance_mm) in tags {
+            let pushed = detections.push(TagDetection { id, cx_centipx, distance_mm });
+            prop_assert!(pushed.is_ok(), "at most MAX_TAGS");
+        }
+        let m = Message::Inputs(Inputs {
+            tick: v[0],
+            time_ms: v[1],
+            frame: SensorFrame {
+                dt_us: v[2],
+                flow: present[0].then_some(FlowDelta {
+                    forward_counts: v[3] as i32,
+                    right_counts: v[4] as i32,
+                }),
+                gyro: present[1].then_some(GyroRate { rate_mdps: v[5] as i32 }),
+                depth: present[2].then_some(DepthScan { ranges_mm: ranges }),
+                depth_age_us: v[6],
+                tags: detections,
+                tags_age_us: v[7],
+                external_pose: present[3].then_some(Pose {
+                    x_um: v[8] as i32,
+                    y_um: v[9] as i32,
+                    heading: Angle::from_bits(v[10]),
+                }),
+            },
+        });
+        let bytes = frame(&m);
+        prop_assert!(bytes.len() <= MAX_FRAME_LEN);
+        prop_assert_eq!(decode_all(&bytes).0, std::vec![Ok(m)]);
     }
 }

@@ -7,7 +7,9 @@
 
 use serde::{Deserialize, Serialize, Serializer};
 use slam_core::{
-    Calibration, Counters, FixOutcome, FixRejection, Localiser, PoseCovariance, TagCounters,
+    Angle, Calibration, Counters, DepthScan, FixOutcome, FixRejection, FlowDelta, GyroRate,
+    Localiser, Pose, PoseCovariance, SensorFrame, TagCounters, TagDetection, TagDetections, BEAMS,
+    MAX_TAGS,
 };
 
 /// [`FixRejection`] on the wire: its variant index as a varint.
@@ -96,4 +98,153 @@ pub fn serialize_counters<S: Serializer>(
     #[derive(Serialize)]
     struct AsWire<'a>(#[serde(with = "CountersDef")] &'a Counters);
     counters.as_ref().map(AsWire).serialize(serializer)
+}
+
+/// [`FlowDelta`] on the wire: two zigzag varints, flow counts.
+#[derive(Serialize, Deserialize)]
+#[serde(remote = "FlowDelta", rename = "FlowDelta")]
+pub(crate) struct FlowDeltaDef {
+    forward_counts: i32,
+    right_counts: i32,
+}
+
+/// [`GyroRate`] on the wire: one zigzag varint, millidegrees per second.
+#[derive(Serialize, Deserialize)]
+#[serde(remote = "GyroRate", rename = "GyroRate")]
+pub(crate) struct GyroRateDef {
+    rate_mdps: i32,
+}
+
+/// [`DepthScan`] on the wire: [`BEAMS`] optional `u16` ranges, no count (the array is fixed).
+#[derive(Serialize, Deserialize)]
+#[serde(remote = "DepthScan", rename = "DepthScan")]
+pub(crate) struct DepthScanDef {
+    ranges_mm: [Option<u16>; BEAMS],
+}
+
+/// [`TagDetection`] on the wire: id, centre column, distance.
+#[derive(Serialize, Deserialize)]
+#[serde(remote = "TagDetection", rename = "TagDetection")]
+pub(crate) struct TagDetectionDef {
+    id: u16,
+    cx_centipx: i32,
+    distance_mm: u32,
+}
+
+/// [`Angle`] on the wire: its bits, a varint (2^32 per turn).
+#[derive(Serialize, Deserialize)]
+#[serde(remote = "Angle", rename = "Angle")]
+pub(crate) struct AngleDef(#[serde(getter = "angle_bits")] u32);
+
+/// [`Angle::bits`] by reference, as serde's getter wants it.
+fn angle_bits(a: &Angle) -> u32 {
+    a.bits()
+}
+
+impl From<AngleDef> for Angle {
+    fn from(a: AngleDef) -> Angle {
+        Angle::from_bits(a.0)
+    }
+}
+
+/// [`Pose`] on the wire: micrometres and the heading's bits.
+#[derive(Serialize, Deserialize)]
+#[serde(remote = "Pose", rename = "Pose")]
+pub(crate) struct PoseDef {
+    x_um: i32,
+    y_um: i32,
+    #[serde(with = "AngleDef")]
+    heading: Angle,
+}
+
+/// [`SensorFrame`] on the wire: every input of one step, in the core's own units and order.
+#[derive(Serialize, Deserialize)]
+#[serde(remote = "SensorFrame", rename = "SensorFrame")]
+pub(crate) struct SensorFrameDef {
+    dt_us: u32,
+    #[serde(with = "option_flow")]
+    flow: Option<FlowDelta>,
+    #[serde(with = "option_gyro")]
+    gyro: Option<GyroRate>,
+    #[serde(with = "option_depth")]
+    depth: Option<DepthScan>,
+    depth_age_us: u32,
+    #[serde(with = "tag_list")]
+    tags: TagDetections,
+    tags_age_us: u32,
+    #[serde(with = "option_pose")]
+    external_pose: Option<Pose>,
+}
+
+/// `Option<T>` of a remote type `T` whose mirror is `$def`: postcard's option byte (0
+/// none, 1 some) and then the mirror's layout.
+macro_rules! option_of {
+    ($module:ident, $ty:ty, $def:literal) => {
+        pub(crate) mod $module {
+            use super::*;
+            use serde::{Deserializer, Serializer};
+
+            #[derive(Serialize)]
+            struct Out<'a>(#[serde(with = $def)] &'a $ty);
+
+            #[derive(Deserialize)]
+            struct In(#[serde(with = $def)] $ty);
+
+            pub(crate) fn serialize<S: Serializer>(
+                value: &Option<$ty>,
+                serializer: S,
+            ) -> Result<S::Ok, S::Error> {
+                value.as_ref().map(Out).serialize(serializer)
+            }
+
+            pub(crate) fn deserialize<'de, D: Deserializer<'de>>(
+                deserializer: D,
+            ) -> Result<Option<$ty>, D::Error> {
+                Ok(Option::<In>::deserialize(deserializer)?.map(|In(v)| v))
+            }
+        }
+    };
+}
+
+option_of!(option_flow, FlowDelta, "FlowDeltaDef");
+option_of!(option_gyro, GyroRate, "GyroRateDef");
+option_of!(option_depth, DepthScan, "DepthScanDef");
+option_of!(option_pose, Pose, "PoseDef");
+
+/// [`TagDetections`] on the wire: a varint count, at most [`MAX_TAGS`] (a longer list is
+/// refused as a bad body), then each detection.
+pub(crate) mod tag_list {
+    use super::*;
+    use serde::ser::SerializeSeq;
+    use serde::{Deserializer, Serializer};
+
+    #[derive(Serialize)]
+    struct Out<'a>(#[serde(with = "TagDetectionDef")] &'a TagDetection);
+
+    #[derive(Deserialize)]
+    struct In(#[serde(with = "TagDetectionDef")] TagDetection);
+
+    pub(crate) fn serialize<S: Serializer>(
+        tags: &TagDetections,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        let mut seq = serializer.serialize_seq(Some(tags.len()))?;
+        for t in tags {
+            seq.serialize_element(&Out(t))?;
+        }
+        seq.end()
+    }
+
+    pub(crate) fn deserialize<'de, D: Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<TagDetections, D::Error> {
+        // heapless refuses a count past its capacity before reading any element.
+        let wrapped = heapless::Vec::<In, MAX_TAGS>::deserialize(deserializer)?;
+        let mut tags = TagDetections::new();
+        for In(t) in wrapped {
+            // Same capacity: never refused.
+            let _ = tags.push(t);
+        }
+        Ok(tags)
+    }
 }

@@ -1,13 +1,14 @@
 //! The telemetry messages: what each carries, in the order postcard lays it out.
 
 use super::core_layout::{
-    CalibrationDef, CountersDef, FixOutcomeDef, LocaliserDef, PoseCovarianceDef, TagCountersDef,
+    CalibrationDef, CountersDef, FixOutcomeDef, LocaliserDef, PoseCovarianceDef, SensorFrameDef,
+    TagCountersDef,
 };
 use super::{CellScale, SensorHealth, MAX_CHUNK_CELLS};
 use serde::{Deserialize, Serialize};
 use slam_core::{
     Angle, Calibration, Counters, Estimate, FixOutcome, GridMap, Localiser, Pose, PoseCovariance,
-    Staleness, StepReport, TagCounters,
+    SensorFrame, Staleness, StepReport, TagCounters,
 };
 
 /// The firmware's version, sent in every [`Hello`].
@@ -190,6 +191,20 @@ impl FilterState {
     }
 }
 
+/// The raw inputs of one tick: the [`SensorFrame`] the core stepped on, sent just before
+/// that tick's [`Tick`], so that a host can run the same steps again (`host-sim replay`).
+#[derive(Clone, PartialEq, Eq, Debug, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Inputs {
+    /// The tick this frame was stepped on (the following `Tick`'s `tick`).
+    pub tick: u32,
+    /// Time of the tick since start, milliseconds (the following `Tick`'s `time_ms`).
+    pub time_ms: u32,
+    /// Every input of the step, in the core's units.
+    #[serde(with = "SensorFrameDef")]
+    pub frame: SensorFrame,
+}
+
 /// A run of map cells, in cell units; see [the telemetry module](super) for the scale.
 #[derive(Clone, PartialEq, Eq, Debug, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -220,4 +235,6 @@ pub enum Message {
     Health(SensorHealth),
     /// The filter's belief (variant 4).
     Filter(FilterState),
+    /// One tick's raw inputs (variant 5), when the schedule sends them.
+    Inputs(Inputs),
 }

@@ -1,8 +1,9 @@
 //! The robot's telemetry stream: framed binary messages from the robot to a viewer.
 //!
 //! The robot sends, on a UART or USB CDC link, a [`Message::Hello`] at start and every
-//! few seconds (so a viewer can join late), a [`Message::Tick`] every SLAM tick (followed
-//! by a [`Message::Filter`] when the robot flies the filter), a chunk of the map
+//! few seconds (so a viewer can join late), a [`Message::Tick`] every SLAM tick (preceded
+//! by that tick's raw inputs, [`Message::Inputs`], when the schedule records them, and
+//! followed by a [`Message::Filter`] when the robot flies the filter), a chunk of the map
 //! ([`Message::MapRows`]) every tick, round robin, and a [`Message::Health`] every second. [`Streamer`] decides which, [`encode`] frames one message into the
 //! caller's buffer, and [`StreamDecoder`] turns received bytes back into messages.
 //!
@@ -16,7 +17,7 @@
 //! COBS( VERSION | postcard(Message) | CRC16_LE ) | 0x00
 //! ```
 //!
-//! - `VERSION` is one byte, [`WIRE_VERSION`] (`0xB4`: BugBot telemetry, layout 4). A
+//! - `VERSION` is one byte, [`WIRE_VERSION`] (`0xB5`: BugBot telemetry, layout 5). A
 //!   receiver drops frames with any other value.
 //! - `postcard(Message)` is the [postcard 1.x] encoding of [`Message`]: integers `u16`,
 //!   `u32`, `i32` are LEB128 varints (signed ones zigzag-mapped first), `u8` and `i8` are
@@ -39,8 +40,10 @@
 //! | 2 | `MapRows` | `first_row: u16`, `first_column: u16`, `cells`: varint count (at most [`MAX_CHUNK_CELLS`]) then one `i8` per cell |
 //! | 3 | `Health` | twelve `u32`: depth_timeouts, depth_bus_errors, flow_no_surface, flow_outliers, flow_bus_errors, gyro_bus_errors, camera_bad_frames, tick_overruns, watchdog_feeds, depth_start_failures, flow_start_failures, gyro_start_failures |
 //! | 4 | `Filter` | `tick: u32`, the pose covariance as six `i64` (xx, xy, yy, xh, yh, hh; position in 1/16 mm, heading in 2^-16 rad, so xx / 256 is mm² and hh / 2^32 rad²), the calibration as three `i32` (gyro_scale_ppm, gyro_bias_mdps, flow_scale_ppm), the tag counters as six `u32` (used, unknown_id, behind, too_far, too_old, gate) |
+//! | 5 | `Inputs` | `tick: u32`, `time_ms: u32` (as the `Tick` that follows), then the `SensorFrame` the core stepped on: `dt_us: u32`; `flow`: option (postcard's option byte: 0 none, 1 some, then the value) of `forward_counts: i32`, `right_counts: i32` (flow counts); `gyro`: option of `rate_mdps: i32` (clockwise positive); `depth`: option of 8 ranges left to right, each an option of `u16` mm; `depth_age_us: u32`; `tags`: varint count (at most `slam_core::MAX_TAGS`, 8) then each `id: u16`, `cx_centipx: i32`, `distance_mm: u32`; `tags_age_us: u32`; `external_pose`: option of `x_um: i32`, `y_um: i32`, `heading_bits: u32` |
 //!
-//! A `Filter` follows each `Tick` of a robot whose `Hello` says it flies the filter, and
+//! An `Inputs` comes just before the `Tick` of the step it fed, when
+//! [`Schedule::inputs`] is on. A `Filter` follows each `Tick` of a robot whose `Hello` says it flies the filter, and
 //! carries the same `tick`.
 //!
 //! A `MapRows` chunk's cells run in row-major order from `(first_column, first_row)`,
@@ -52,13 +55,15 @@
 //!
 //! # Budget
 //!
-//! The longest frame is [`MAX_FRAME_LEN`] (142) bytes. On the seed's 46 x 46 grid at
-//! 10 Hz with [`Schedule::DEFAULT`]: a `MapRows` of two rows (92 cells) is 101 bytes a
-//! tick, a `Tick` at most 96, a `Filter` at most 116, a `Health` at most 66 once a second
-//! and a `Hello` at most 34 every 5 s (the tests check each bound). That is at most
-//! 10 x (101 + 96 + 116) + 66 + 7 = 3,203 bytes/s, and the whole map refreshes every
-//! 2.3 s. The firmware sends two chunks a tick: at most 4,213 bytes/s, 4.6 % of its
-//! 921,600 baud 8N1 UART (92,160 bytes/s).
+//! The longest frame is [`MAX_FRAME_LEN`] (202) bytes, a full `Inputs`. On the seed's
+//! 46 x 46 grid at 10 Hz with [`Schedule::DEFAULT`]: a `MapRows` of two rows (92 cells)
+//! is 101 bytes a tick, an `Inputs` at most 202, a `Tick` at most 96, a `Filter` at most
+//! 116, a `Health` at most 66 once a second and a `Hello` at most 34 every 5 s (the tests
+//! check each bound). That is at most 10 x (101 + 202 + 96 + 116) + 66 + 7 = 5,223
+//! bytes/s, and the whole map refreshes every 2.3 s. The firmware sends two chunks a
+//! tick: at most 6,233 bytes/s, 6.8 % of its 921,600 baud 8N1 UART (92,160 bytes/s), of
+//! which the inputs are 2,020 bytes/s (2.2 %). Without them (`inputs: false`) a run cannot
+//! be replayed, but the stream is a third shorter.
 //!
 //! # Files
 //!
@@ -82,26 +87,38 @@ pub use core_layout::serialize_counters;
 pub use decode::{Frames, StreamDecoder};
 pub use health::SensorHealth;
 pub use message::{
-    CellChunk, FilterState, FirmwareVersion, Hello, MapRows, Message, Tick, STALE_DEPTH,
+    CellChunk, FilterState, FirmwareVersion, Hello, Inputs, MapRows, Message, Tick, STALE_DEPTH,
     STALE_FLOW, STALE_GYRO,
 };
 pub use stream::{encode, EncodeError, Schedule, Streamer};
 
-/// The first byte of every frame: `0xB4`, BugBot telemetry layout 4.
+/// The first byte of every frame: `0xB5`, BugBot telemetry layout 5.
 ///
 /// Bumped whenever the layout changes, so an old viewer drops new frames instead of
 /// misreading them. Layout 2 added the start-up failure counts to `Health`; layout 3 the
 /// `TooOld` fix rejection and its counter to `Tick`; layout 4 the `Hello`'s localiser and
-/// the `Filter` message.
-pub const WIRE_VERSION: u8 = 0xB4;
+/// the `Filter` message; layout 5 the `Inputs` message.
+pub const WIRE_VERSION: u8 = 0xB5;
 
 /// Most cells one [`MapRows`] carries: two rows of the seed's 46-cell grid fit, and the
 /// frame stays under 150 bytes (1.6 ms at 921,600 baud).
 pub const MAX_CHUNK_CELLS: usize = 128;
 
-/// Longest postcard encoding of any [`Message`], in bytes (a full [`MapRows`]: index 1,
-/// two 3-byte `u16` varints, a 2-byte count and 128 cells).
-pub const MAX_MESSAGE_LEN: usize = 1 + 3 + 3 + 2 + MAX_CHUNK_CELLS;
+/// Longest postcard encoding of any [`Message`], in bytes: a full [`Inputs`] (index 1; tick,
+/// time and `dt_us` 5 each; flow 1 + 5 + 5; gyro 1 + 5; depth 1 + 8 x (1 + 3); depth age
+/// 5; eight tags, a 1-byte count and 3 + 5 + 5 each; tags age 5; external pose
+/// 1 + 5 + 5 + 5). A full [`MapRows`] is shorter: 1 + 3 + 3 + 2 + [`MAX_CHUNK_CELLS`].
+pub const MAX_MESSAGE_LEN: usize = 1
+    + 5
+    + 5
+    + 5
+    + (1 + 5 + 5)
+    + (1 + 5)
+    + (1 + slam_core::BEAMS * (1 + 3))
+    + 5
+    + (1 + slam_core::MAX_TAGS * (3 + 5 + 5))
+    + 5
+    + (1 + 5 + 5 + 5);
 
 /// Longest frame before stuffing: version byte, message, CRC.
 pub const MAX_RAW_LEN: usize = 1 + MAX_MESSAGE_LEN + 2;

@@ -1,11 +1,11 @@
 //! The sending side: which messages go out on each tick, and framing one into bytes.
 
 use super::{
-    CellChunk, CellScale, FilterState, FirmwareVersion, Hello, MapRows, Message, SensorHealth,
-    Tick, MAX_CHUNK_CELLS, MAX_MESSAGE_LEN, MAX_RAW_LEN, WIRE_VERSION,
+    CellChunk, CellScale, FilterState, FirmwareVersion, Hello, Inputs, MapRows, Message,
+    SensorHealth, Tick, MAX_CHUNK_CELLS, MAX_MESSAGE_LEN, MAX_RAW_LEN, WIRE_VERSION,
 };
 use crate::framing::{cobs_encode, cobs_len, crc16};
-use slam_core::{GridMap, Localiser, StepReport, TagCounters};
+use slam_core::{GridMap, Localiser, SensorFrame, StepReport, TagCounters};
 
 /// When each kind of message goes out, in ticks.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -17,14 +17,19 @@ pub struct Schedule {
     pub health_every_ticks: u32,
     /// `MapRows` chunks per tick.
     pub map_chunks_per_tick: u8,
+    /// Whether each tick's [`Inputs`] (the frame the core stepped on) go out before its
+    /// `Tick`, so that the run can be replayed on a host.
+    pub inputs: bool,
 }
 
 impl Schedule {
-    /// At 10 Hz: a `Hello` every 5 s, a `Health` every second, one chunk a tick.
+    /// At 10 Hz: a `Hello` every 5 s, a `Health` every second, one chunk a tick, and
+    /// each tick's inputs.
     pub const DEFAULT: Schedule = Schedule {
         hello_every_ticks: 50,
         health_every_ticks: 10,
         map_chunks_per_tick: 1,
+        inputs: true,
     };
 }
 
@@ -67,13 +72,16 @@ impl Streamer {
         }
     }
 
-    /// Hands `send` this tick's messages, in order: a `Hello` when due, the `Tick`, the
+    /// Hands `send` this tick's messages, in order: a `Hello` when due, the [`Inputs`]
+    /// (`frame`, what `step` was given) when the schedule sends them, the `Tick`, the
     /// [`FilterState`] when the report has an estimate (with `tags`, the core's
     /// `tag_counters()`), the map chunks, and `health` when due. `time_ms` is the tick's
     /// time since start.
+    #[allow(clippy::too_many_arguments)]
     pub fn tick<const W: usize, const H: usize>(
         &mut self,
         time_ms: u32,
+        frame: &SensorFrame,
         report: &StepReport,
         tags: TagCounters,
         map: &GridMap<W, H>,
@@ -89,6 +97,13 @@ impl Streamer {
                 self.firmware,
                 self.localiser,
             )));
+        }
+        if self.schedule.inputs {
+            send(&Message::Inputs(Inputs {
+                tick: report.counters.ticks,
+                time_ms,
+                frame: frame.clone(),
+            }));
         }
         send(&Message::Tick(Tick::new(time_ms, report)));
         if let Some(state) = FilterState::new(report, tags) {

@@ -49,6 +49,7 @@ pub fn fault_run() -> Result<(u64, u64), String> {
     let depth_stale = num(&v["counters"]["depth_stale"]);
     let fresh_depth_after_fault = ticks - depth_stale - TICKS_BEFORE_FAULT;
     let mut checks = timing_checks(e, v);
+    checks.push(replay_check(&f));
     checks.extend([
         (
             "telemetry decoded without a bad frame".into(),
@@ -140,6 +141,41 @@ fn timing_checks(e: &serde_json::Value, v: &serde_json::Value) -> Vec<(String, b
     ]
 }
 
+/// The run's stream replayed on the host with the firmware's settings (`host-sim replay`,
+/// run by `cargo xtask emulate`): every tick the viewer got was stepped again, and every
+/// `Tick`, `Filter` and map chunk the firmware sent equals the replay's.
+fn replay_check(f: &serde_json::Value) -> (String, bool) {
+    let (r, b) = (&f["replay"], &f["replay"]["bit_for_bit"]);
+    let num = |x: &serde_json::Value| x.as_f64().unwrap_or(f64::NAN);
+    let ticks = num(&f["view"]["ticks"]);
+    let difference = match &b["first_difference"] {
+        serde_json::Value::Null => String::new(),
+        d => {
+            let text = |k: &str| d[k].as_str().unwrap_or("?").to_string();
+            format!(
+                "; first difference at tick {}: {} (robot {}, replay {})",
+                d["tick"],
+                text("field"),
+                text("robot"),
+                text("replay")
+            )
+        }
+    };
+    let error = r["error"]
+        .as_str()
+        .map_or(String::new(), |e| format!("; {e}"));
+    (
+        format!(
+            "the stream replays bit for bit on the host: {} of {ticks} ticks, {} filter states, {} map chunks{difference}{error}",
+            b["ticks"], b["filters"], b["map_chunks"]
+        ),
+        r["robot_settings"] == true
+            && b["first_difference"].is_null()
+            && num(&b["ticks"]) == ticks
+            && num(&r["steps"]) == ticks,
+    )
+}
+
 /// Simulated seconds for the whole seed route: 48.5 s of route after about 1.1 s of gyro
 /// calibration at rest from reset, and time for the last tick's telemetry to get out.
 const ROUTE_SECONDS: &str = "52";
@@ -219,6 +255,7 @@ pub fn route_run() -> Result<(u64, u64), String> {
         )
     };
     let mut checks = timing_checks(e, v);
+    checks.push(replay_check(&f));
     checks.extend([
         (
             "telemetry decoded without a bad frame".into(),
@@ -319,5 +356,35 @@ mod tests {
         // A figure missing from either side never agrees.
         assert!(!agrees(f64::NAN, 13.6, Absolute(1.5)));
         assert!(!agrees(13.6, f64::NAN, Relative(0.25)));
+    }
+
+    #[test]
+    fn the_replay_check_wants_every_tick_equal() {
+        let figures = |steps: u32, difference: serde_json::Value, error: Option<&str>| {
+            let mut replay = serde_json::json!({
+                "robot_settings": true,
+                "steps": steps,
+                "bit_for_bit": {
+                    "ticks": steps, "filters": steps, "map_chunks": 2 * steps,
+                    "first_difference": difference,
+                },
+            });
+            if let Some(e) = error {
+                replay = serde_json::json!({ "error": e });
+            }
+            serde_json::json!({ "view": { "ticks": 519 }, "replay": replay })
+        };
+        let null = serde_json::Value::Null;
+        assert!(replay_check(&figures(519, null.clone(), None)).1);
+        // A tick not replayed, a difference, or no replay at all fails.
+        assert!(!replay_check(&figures(518, null.clone(), None)).1);
+        let d = serde_json::json!({"tick": 7, "field": "x_um", "robot": "1", "replay": "2"});
+        let (what, ok) = replay_check(&figures(519, d, None));
+        assert!(
+            !ok && what.contains("tick 7: x_um (robot 1, replay 2)"),
+            "{what}"
+        );
+        let (what, ok) = replay_check(&figures(519, null, Some("no figures")));
+        assert!(!ok && what.contains("no figures"), "{what}");
     }
 }

@@ -9,7 +9,9 @@
 //! its own loop counters, and the captured telemetry with `host-sim view`, which prints the figures and
 //! draws the pictures into `out/emulator/`. The harness also records the world's true pose
 //! at each step (`truth.jsonl`), so `view --truth --scenario` reports the figures
-//! `host-sim run` reports, worked out by the same code.
+//! `host-sim run` reports, worked out by the same code. Last, `host-sim replay` steps the
+//! stream's input frames through the core again and compares the result with what the
+//! firmware sent, tick for tick.
 //!
 //! [`checks`] holds what `cargo xtask test` requires of such runs, [`self_tests`] runs the
 //! harness's own tests.
@@ -53,7 +55,7 @@ pub struct EmulateArgs {
     /// Stop after this many wall-clock seconds.
     #[arg(long, value_name = "S", value_parser = positive_number)]
     pub max_wall: Option<String>,
-    /// Print one JSON object: {"emulator": ..., "view": ..., "out_dir": ...}.
+    /// Print one JSON object: {"emulator": ..., "view": ..., "replay": ..., "out_dir": ...}.
     #[arg(long)]
     pub json: bool,
 }
@@ -178,6 +180,17 @@ pub fn run(args: &EmulateArgs) -> Result<(), String> {
     // A failing view must not hide the emulator's own figures.
     let view_out = capture(&root, &mut view);
 
+    // The stream's inputs stepped again on the host with the firmware's own settings: the
+    // replay must be the firmware's run, bit for bit (`checks` holds it to that).
+    let mut replay = Command::new(&host_sim);
+    replay
+        .arg("replay")
+        .arg(&telemetry)
+        .arg("--scenario")
+        .arg(&scenario)
+        .arg("--json");
+    let replay_json = replay_summary(&root, &mut replay);
+
     if args.json {
         let view_json = match &view_out {
             Ok(text) if text.trim_start().starts_with('{') => text.trim().to_string(),
@@ -185,7 +198,7 @@ pub fn run(args: &EmulateArgs) -> Result<(), String> {
             Err(e) => format!("{{\"error\":{}}}", json_string(e)),
         };
         println!(
-            "{{\"emulator\":{emulator_json},\"view\":{view_json},\"out_dir\":{}}}",
+            "{{\"emulator\":{emulator_json},\"view\":{view_json},\"replay\":{replay_json},\"out_dir\":{}}}",
             json_string(&out_dir.display().to_string())
         );
     } else {
@@ -194,9 +207,24 @@ pub fn run(args: &EmulateArgs) -> Result<(), String> {
             Ok(text) => println!("{}", text.trim_end()),
             Err(e) => eprintln!("xtask emulate: host-sim view failed: {e}"),
         }
+        println!("replay: {replay_json}");
         println!("pictures and raw streams in {}", out_dir.display());
     }
     Ok(())
+}
+
+/// `host-sim replay --json`'s `replay` object, whatever its exit code (a replay that
+/// differs exits 3 and still reports where); `{"error": ...}` when there is none.
+fn replay_summary(dir: &Path, cmd: &mut Command) -> serde_json::Value {
+    eprintln!("+ {:?}", cmd);
+    let error = |e: String| serde_json::json!({ "error": e });
+    match cmd.current_dir(dir).stderr(Stdio::inherit()).output() {
+        Ok(out) => match serde_json::from_slice::<serde_json::Value>(&out.stdout) {
+            Ok(v) if v["replay"].is_object() => v["replay"].clone(),
+            _ => error(format!("host-sim replay gave no figures: {}", out.status)),
+        },
+        Err(e) => error(crate::cannot_start(cmd, &e)),
+    }
 }
 
 /// Decodes the harness's raw defmt capture with the table in the firmware's ELF.
