@@ -38,6 +38,20 @@ fn narrow(v: &[i64; N]) -> Option<[i32; N]> {
     Some(out)
 }
 
+/// The largest magnitude in `v`.
+fn max_abs(v: &[i32; N]) -> u32 {
+    v.iter().fold(0, |m, x| m.max(x.unsigned_abs()))
+}
+
+/// Whether every `k1[i] a1[j] + k2[i] a2[j]`, rounded, fits an `i32`: then the update's
+/// products are the M0+'s single-cycle multiplies, and its result the same bit for bit.
+fn products_fit_i32(k1: &[i32; N], a1: &[i32; N], k2: &[i32; N], a2: &[i32; N]) -> bool {
+    let bound = wide_mul_unsigned(max_abs(k1), max_abs(a1))
+        + wide_mul_unsigned(max_abs(k2), max_abs(a2))
+        + (1 << (GAIN_SHIFT - 1));
+    bound <= i32::MAX as u64
+}
+
 /// `x` clamped into an `i32`, short of `i32::MIN` (whose negation would not fit).
 fn clamp32(x: i64) -> i32 {
     x.clamp(-(i32::MAX as i64), i32::MAX as i64) as i32
@@ -189,6 +203,18 @@ impl Covariance {
         };
         let (k1, k2) = (gains(a1, s1), gains(a2, s2));
         match (narrow(&k1), narrow(a1), narrow(&k2), narrow(a2)) {
+            // A converged filter's products fit 31 bits: one multiply each.
+            (Some(k1), Some(a1), Some(k2), Some(a2)) if products_fit_i32(&k1, &a1, &k2, &a2) => {
+                for i in 0..N {
+                    for j in i..N {
+                        let d =
+                            (k1[i] * a1[j] + k2[i] * a2[j] + (1 << (GAIN_SHIFT - 1))) >> GAIN_SHIFT;
+                        let v = self.m[i][j].saturating_sub(d).max(-i32::MAX);
+                        self.m[i][j] = v;
+                        self.m[j][i] = v;
+                    }
+                }
+            }
             // A working filter's gains and `P h` fit 32 bits: 32 x 32 multiplies.
             (Some(k1), Some(a1), Some(k2), Some(a2)) => {
                 for i in 0..N {
