@@ -23,13 +23,33 @@ pub fn wide_mul(a: i32, b: i32) -> i64 {
 
 /// `a * b` for unsigned 32-bit `a` and `b` (as [`wide_mul`]).
 #[inline(always)]
-pub fn wide_mul_unsigned(a: u32, b: u32) -> u64 {
+pub const fn wide_mul_unsigned(a: u32, b: u32) -> u64 {
     let (ah, al) = (a >> 16, a & 0xFFFF);
     let (bh, bl) = (b >> 16, b & 0xFFFF);
     let (mid, mid_carry) = (ah * bl).overflowing_add(al * bh);
     let (low, low_carry) = (al * bl).overflowing_add(mid << 16);
-    let high = ah * bh + (mid >> 16) + (u32::from(mid_carry) << 16) + u32::from(low_carry);
-    (u64::from(high) << 32) | u64::from(low)
+    let high = ah * bh + (mid >> 16) + ((mid_carry as u32) << 16) + low_carry as u32;
+    ((high as u64) << 32) | low as u64
+}
+
+/// `p / 2^shift` rounded to nearest, for `shift` below 63, worked in 32-bit halves: the
+/// M0+ has no 64-bit shifter, and the library's shifts are calls.
+#[inline(always)]
+pub fn round_shift(p: i64, shift: u32) -> i64 {
+    if shift == 0 {
+        return p;
+    }
+    // floor((p + 2^(s-1)) / 2^s) is floor((floor(p / 2^(s-1)) + 1) / 2).
+    let s = shift - 1;
+    let (hi, lo) = ((p >> 32) as i32, p as u32);
+    let q = if s == 0 {
+        p
+    } else if s < 32 {
+        (i64::from(hi >> s) << 32) | i64::from((lo >> s) | ((hi as u32) << (32 - s)))
+    } else {
+        i64::from(hi >> (s - 32))
+    };
+    (q + 1) >> 1
 }
 
 /// `a * b / 2^shift`, rounded to nearest; saturating.
@@ -37,7 +57,7 @@ pub fn wide_mul_unsigned(a: u32, b: u32) -> u64 {
 pub fn mul_shift(a: i64, b: i64, shift: u32) -> i64 {
     if fits_i32(a) && fits_i32(b) && shift < 62 {
         // |a b| <= 2^62: the product and the rounding bias fit.
-        (wide_mul(a as i32, b as i32) + ((1i64 << shift) >> 1)) >> shift
+        round_shift(wide_mul(a as i32, b as i32), shift)
     } else {
         wide_mul_shift(a, b, shift)
     }
@@ -68,7 +88,8 @@ fn round_shift_wide(p: i128, shift: i32) -> i64 {
 #[inline]
 pub const fn square(x: i64) -> i64 {
     if fits_i32(x) {
-        x * x
+        let a = (x as i32).unsigned_abs();
+        wide_mul_unsigned(a, a) as i64
     } else {
         x.saturating_mul(x)
     }
@@ -126,7 +147,7 @@ impl Reciprocal {
         let shift = self.shift - extra as i32;
         if fits_i32(x) && (1..62).contains(&shift) {
             // |x inv| < 2^62.
-            (wide_mul(x as i32, self.inv) + (1i64 << (shift - 1))) >> shift
+            round_shift(wide_mul(x as i32, self.inv), shift as u32)
         } else {
             self.times_wide(x, shift)
         }
@@ -151,6 +172,42 @@ mod tests {
         assert_eq!(mul_shift(1 << 40, 1 << 40, 16), i64::MAX);
         assert_eq!(mul_shift(i64::MAX, i64::MAX, 0), i64::MAX);
         assert_eq!(mul_shift(i64::MIN, i64::MAX, 0), i64::MIN);
+    }
+
+    #[test]
+    fn round_shift_is_the_64_bit_one() {
+        let mut x = 0x1234_5678_9ABC_DEF0u64;
+        for _ in 0..100_000 {
+            x = x.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            let p = (x as i64) >> (x % 40);
+            for shift in [(x >> 40) as u32 % 63, 1, 16, 31, 32, 33, 62] {
+                let want = if shift == 0 {
+                    p
+                } else {
+                    ((i128::from(p) + (1 << (shift - 1))) >> shift) as i64
+                };
+                assert_eq!(round_shift(p, shift), want, "{p} >> {shift}");
+            }
+        }
+        assert_eq!(round_shift(-3, 1), -1);
+        assert_eq!(round_shift(3, 1), 2);
+        assert_eq!(round_shift(i64::MIN, 62), -2);
+    }
+
+    #[test]
+    fn square_is_the_product() {
+        for x in [
+            0i64,
+            1,
+            -1,
+            46_341,
+            -46_341,
+            i32::MAX as i64,
+            -(i32::MAX as i64),
+            1 << 31,
+        ] {
+            assert_eq!(square(x), x.saturating_mul(x));
+        }
     }
 
     #[test]
