@@ -14,6 +14,18 @@ use crate::tagfix::{CameraConfig, KnownTag};
 /// (whose entries grow as one over the range).
 const MIN_JACOBIAN_RANGE_MM: i64 = 50;
 
+/// Sines (Q16) below this, 0.1, take their angle from [`asin_small`].
+const ASIN_SERIES_BELOW: i64 = 6554;
+
+/// `asin(x) = x + x^3 / 6` in Q16 for `|x|` below [`ASIN_SERIES_BELOW`], where every
+/// product fits 32 bits and the cube's sixth (below 70) is a multiply by `2^16 / 6`:
+/// the M0+ has no divider.
+fn asin_small(x: i32) -> i32 {
+    let cube = (((x * x) >> 16) * x) >> 16;
+    let sixth = (cube.abs() * 10_923) >> 16;
+    x + if cube < 0 { -sixth } else { sixth }
+}
+
 /// `h a` for a sparse Q16 row `h`.
 fn dot(h: &[(State, i32)], a: &[i64; N]) -> i64 {
     h.iter()
@@ -24,7 +36,7 @@ fn dot(h: &[(State, i32)], a: &[i64; N]) -> i64 {
 /// `nu^2 / s` in Q8, saturating.
 fn normalised_square_q8(nu: i64, s: &Reciprocal) -> i64 {
     if fits_i32(nu) {
-        s.times(nu * nu, 8)
+        s.times(square(nu), 8)
     } else {
         i64::MAX
     }
@@ -102,8 +114,8 @@ impl Estimator {
         if cos_nu <= 0 {
             return Err(TagRefusal::Gate);
         }
-        let nu_bearing = if sin_nu.abs() < 6554 {
-            sin_nu + ((((sin_nu * sin_nu) >> 16) * sin_nu) >> 16) / 6
+        let nu_bearing = if sin_nu.abs() < ASIN_SERIES_BELOW {
+            i64::from(asin_small(sin_nu as i32))
         } else {
             units::heading_from_bits(i64::from(
                 Angle::of_vector(sin_nu, i64::from(cos_nu)).signed_bits(),
@@ -187,5 +199,18 @@ impl Estimator {
             y_um: shift(then.y_um, fy),
             heading: then.heading + Angle::from_bits(units::bits_from_fine_heading(fh) as u32),
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn asin_small_is_the_series_divided() {
+        for x in -(ASIN_SERIES_BELOW - 1)..ASIN_SERIES_BELOW {
+            let want = x + ((((x * x) >> 16) * x) >> 16) / 6;
+            assert_eq!(i64::from(asin_small(x as i32)), want, "{x}");
+        }
     }
 }
