@@ -63,6 +63,42 @@ pub fn mul_shift(a: i64, b: i64, shift: u32) -> i64 {
     }
 }
 
+/// `x * v / 2^16` rounded to nearest for a Q16 `v` within 1.0 (a sine or cosine): two
+/// 32-bit multiplies when `x` fits 32 bits, the same as [`mul_shift`].
+#[inline]
+pub fn mul_q16_unit(x: i64, v: i32) -> i64 {
+    if fits_i32(x) && v.unsigned_abs() <= 1 << 16 {
+        i64::from(crate::pose::mul_q16_32(x as i32, v))
+    } else {
+        mul_shift(x, i64::from(v), 16)
+    }
+}
+
+/// `k[i] * x / 2^shift` rounded to nearest for every `i`, the same as [`mul_shift`] on
+/// each: a single 32-bit multiply for each product that fits 31 bits with its rounding
+/// (a converged filter's gains times an innovation), [`mul_shift`] for any other.
+pub fn mul_shift_each<const L: usize>(k: &[i64; L], x: i64, shift: u32) -> [i64; L] {
+    let mut out = [0i64; L];
+    if !(fits_i32(x) && (1..31).contains(&shift)) {
+        for (o, &k) in out.iter_mut().zip(k) {
+            *o = mul_shift(k, x, shift);
+        }
+        return out;
+    }
+    let (x, bias) = (x as i32, 1i32 << (shift - 1));
+    for (o, &k) in out.iter_mut().zip(k) {
+        let small = fits_i32(k)
+            && wide_mul_unsigned((k as i32).unsigned_abs(), x.unsigned_abs()) + bias as u64
+                <= i32::MAX as u64;
+        *o = if small {
+            i64::from(((k as i32) * x + bias) >> shift)
+        } else {
+            mul_shift(k, i64::from(x), shift)
+        };
+    }
+    out
+}
+
 #[cold]
 #[inline(never)]
 fn wide_mul_shift(a: i64, b: i64, shift: u32) -> i64 {
@@ -110,6 +146,37 @@ pub struct Reciprocal {
     shift: i32,
 }
 
+/// `(m, e)` with `m = s / 2^e` (rounded down) in `[2^30, 2^31)`, for `s > 0`: by halving
+/// steps in 32 bits, where `leading_zeros` and 64-bit shifts are library calls on the M0+.
+fn normalise(s: u64) -> (u32, i32) {
+    let (hi, lo) = ((s >> 32) as u32, s as u32);
+    if hi == 0 && lo < 1 << 31 {
+        let (mut m, mut e) = (lo, 0);
+        for step in [16, 8, 4, 2, 1] {
+            if m < 1 << (31 - step) {
+                m <<= step;
+                e -= step as i32;
+            }
+        }
+        return (m, e);
+    }
+    // s >= 2^31: e = (bits of hi) + 1, from 1 to 33.
+    let (mut top, mut bits) = (hi, 0u32);
+    for step in [16, 8, 4, 2, 1] {
+        if top >= 1 << step {
+            top >>= step;
+            bits += step;
+        }
+    }
+    let e = if hi == 0 { 1 } else { bits + 2 };
+    let m = match e {
+        1..=31 => (hi << (32 - e)) | (lo >> e),
+        32 => hi,
+        _ => hi >> (e - 32),
+    };
+    (m, e as i32)
+}
+
 impl Reciprocal {
     /// The reciprocal of `s`; `None` unless `s > 0`.
     ///
@@ -119,11 +186,9 @@ impl Reciprocal {
         if s <= 0 {
             return None;
         }
-        let width = 64 - s.leading_zeros() as i32; // s in [2^(width-1), 2^width)
-        let e = width - 31;
-        let m = (if e >= 0 { s >> e } else { s << -e }) as u32; // [2^30, 2^31)
-                                                                // With d = m / 2^31 in [0.5, 1), 1 / d is x / 2^30. First guess
-                                                                // 48/17 - 32/17 d, within 1/17; each step squares the error.
+        let (m, e) = normalise(s as u64); // s = m 2^e, m in [2^30, 2^31)
+                                          // With d = m / 2^31 in [0.5, 1), 1 / d is x / 2^30. First guess
+                                          // 48/17 - 32/17 d, within 1/17; each step squares the error.
         let mut x = 3_031_741_621u32 - (wide_mul_unsigned(m, 4_042_322_161) >> 32) as u32;
         for _ in 0..3 {
             // e = 1 - d x, in Q32 (the product d x is Q61: m is Q31, x is Q30).
@@ -151,6 +216,24 @@ impl Reciprocal {
         } else {
             self.times_wide(x, shift)
         }
+    }
+
+    /// [`Reciprocal::times`] for every entry of `x`. With a shift of 33 or more (a gain:
+    /// `x` and the quotient both 32-bit), the rounding needs only the product's high
+    /// word, worked out once for the vector.
+    pub fn times_each<const L: usize>(&self, x: &[i64; L], extra: u32) -> [i64; L] {
+        let shift = self.shift - extra as i32;
+        let mut out = [0i64; L];
+        for (o, &x) in out.iter_mut().zip(x) {
+            *o = if (33..62).contains(&shift) && fits_i32(x) {
+                // round_shift's: (p / 2^(shift - 1) + 1) / 2, from |p| < 2^62's high word.
+                let high = (wide_mul(x as i32, self.inv) >> 32) as i32;
+                i64::from(((high >> (shift - 33)) + 1) >> 1)
+            } else {
+                self.times(x, extra)
+            };
+        }
+        out
     }
 
     #[cold]
@@ -192,6 +275,57 @@ mod tests {
         assert_eq!(round_shift(-3, 1), -1);
         assert_eq!(round_shift(3, 1), 2);
         assert_eq!(round_shift(i64::MIN, 62), -2);
+    }
+
+    #[test]
+    fn the_32_bit_shortcuts_are_mul_shift() {
+        let mut rng = 0x0DDB_1A5E_5BAD_5EEDu64;
+        let mut next = || {
+            rng = rng.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            rng
+        };
+        for _ in 0..100_000 {
+            let r = next();
+            let x = (r as i64) >> (r % 50 + 14);
+            let v = ((next() >> 40) as i64 % ((1 << 17) + 1)) - (1 << 16);
+            assert_eq!(mul_q16_unit(x, v as i32), mul_shift(x, v, 16), "{x} {v}");
+            let r = next();
+            let k: [i64; 6] =
+                core::array::from_fn(|i| (next() as i64) >> (r % 40 + 24 + i as u64 % 3));
+            let x = (next() as i64) >> (r % 56 + 8);
+            let shift = (r >> 32) as u32 % 20 + 1;
+            let want: [i64; 6] = core::array::from_fn(|i| mul_shift(k[i], x, shift));
+            assert_eq!(mul_shift_each(&k, x, shift), want, "{k:?} {x} {shift}");
+        }
+    }
+
+    #[test]
+    fn normalise_is_the_leading_zeros_one() {
+        let mut x = 0x5DEE_CE66_D1CE_4E5Bu64;
+        for n in 0..200_000u64 {
+            x = x.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            let s = (x >> (n % 64)).max(1) >> 1 | (n & 1);
+            let s = s.max(1);
+            let width = 64 - s.leading_zeros() as i32;
+            let e = width - 31;
+            let m = (if e >= 0 { s >> e } else { s << -e }) as u32;
+            assert_eq!(normalise(s), (m, e), "{s}");
+        }
+        for s in [
+            1u64,
+            2,
+            3,
+            (1 << 31) - 1,
+            1 << 31,
+            u32::MAX as u64,
+            1 << 32,
+            i64::MAX as u64,
+        ] {
+            let width = 64 - s.leading_zeros() as i32;
+            let e = width - 31;
+            let m = (if e >= 0 { s >> e } else { s << -e }) as u32;
+            assert_eq!(normalise(s), (m, e), "{s}");
+        }
     }
 
     #[test]
@@ -251,6 +385,20 @@ mod tests {
                 (got - want).abs() <= 1.0 + want.abs() * 2e-9,
                 "{a} / {s}: {got} vs {want}"
             );
+            let v = [
+                a,
+                -a,
+                a >> 7,
+                i64::from(i32::MAX),
+                i64::from(i32::MIN),
+                1 << 40,
+            ];
+            for extra in [0, 8, 12, 16, 24] {
+                let each = r.times_each(&v, extra);
+                for (e, &v) in each.iter().zip(&v) {
+                    assert_eq!(*e, r.times(v, extra), "{v} / {s} << {extra}");
+                }
+            }
         }
         assert!(Reciprocal::of(0).is_none());
         assert!(Reciprocal::of(-5).is_none());
