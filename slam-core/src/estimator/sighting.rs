@@ -2,7 +2,7 @@
 
 use super::covariance::{GAIN_SHIFT, N};
 use super::filter::Estimator;
-use super::fixed::{fits_i32, mul_shift, square, Reciprocal};
+use super::fixed::{fits_i32, mul_q16_unit, mul_shift, mul_shift_each, square, Reciprocal};
 use super::units::{self, FINE_SHIFT};
 use super::{State, TagRefusal};
 use crate::angle::{sin_cos_of_vector, Angle};
@@ -28,9 +28,7 @@ fn asin_small(x: i32) -> i32 {
 
 /// `h a` for a sparse Q16 row `h`.
 fn dot(h: &[(State, i32)], a: &[i64; N]) -> i64 {
-    h.iter()
-        .map(|&(j, v)| mul_shift(a[j as usize], i64::from(v), 16))
-        .sum()
+    h.iter().map(|&(j, v)| mul_q16_unit(a[j as usize], v)).sum()
 }
 
 /// `nu^2 / s` in Q8, saturating.
@@ -164,8 +162,8 @@ impl Estimator {
         let nu_bearing = nu_bearing.saturating_sub(mul_shift(c, nu_range, 16));
         let s_bearing = s_bearing.saturating_sub(mul_shift(c, s_cross, 16));
         let mut a_given = a_bearing;
-        for (a, r) in a_given.iter_mut().zip(a_range) {
-            *a = a.saturating_sub(mul_shift(c, r, 16));
+        for (a, r) in a_given.iter_mut().zip(mul_shift_each(&a_range, c, 16)) {
+            *a = a.saturating_sub(r);
         }
         let Some(inv_bearing) = Reciprocal::of(s_bearing) else {
             return Err(TagRefusal::Gate);
@@ -179,13 +177,10 @@ impl Estimator {
         let [k_range, k_bearing] = self
             .p
             .update([(&a_range, &inv_range), (&a_given, &inv_bearing)]);
-        let mut fine = [0i64; N];
-        for ((f, kr), kb) in fine.iter_mut().zip(k_range).zip(k_bearing) {
-            *f = mul_shift(kr, nu_range, GAIN_SHIFT - FINE_SHIFT).saturating_add(mul_shift(
-                kb,
-                nu_bearing,
-                GAIN_SHIFT - FINE_SHIFT,
-            ));
+        let mut fine = mul_shift_each(&k_range, nu_range, GAIN_SHIFT - FINE_SHIFT);
+        let by_bearing = mul_shift_each(&k_bearing, nu_bearing, GAIN_SHIFT - FINE_SHIFT);
+        for (f, b) in fine.iter_mut().zip(by_bearing) {
+            *f = f.saturating_add(b);
         }
         self.bound_variances();
         let [fx, fy, fh, gs, gb, fs] = fine;
