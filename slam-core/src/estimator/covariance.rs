@@ -307,7 +307,14 @@ impl Covariance {
     #[inline(never)]
     pub fn update(&mut self, updates: [(&[i64; N], &Reciprocal); 2]) -> [[i64; N]; 2] {
         let [(a1, s1), (a2, s2)] = updates;
-        let (k1, k2) = (s1.times_each(a1, GAIN_SHIFT), s2.times_each(a2, GAIN_SHIFT));
+        let gains = |a: &[i64; N], s: &Reciprocal| {
+            let mut k = [0i64; N];
+            for (k, a) in k.iter_mut().zip(a) {
+                *k = s.times(*a, GAIN_SHIFT);
+            }
+            k
+        };
+        let (k1, k2) = (gains(a1, s1), gains(a2, s2));
         match (narrow(&k1), narrow(a1), narrow(&k2), narrow(a2)) {
             // A converged filter's products fit 31 bits: one multiply each.
             (Some(k1), Some(a1), Some(k2), Some(a2)) if products_fit_i32(&k1, &a1, &k2, &a2) => {
@@ -339,43 +346,27 @@ impl Covariance {
     }
 
     /// [`Covariance::update`]'s `P - k1 a1^T - k2 a2^T` where each rounded sum fits 32
-    /// bits ([`update_fits_i32`]), row by row: a row whose gains times the largest `P h`
-    /// fit 31 bits in single multiplies, any other from the vectors' [`Halves`], the
-    /// sum's bits 16 to 47 as `hi hi 2^16 + (hi lo + lo hi) + (lo lo + 2^15) / 2^16`. Only
-    /// the last term is shifted, and it is exact in 32 bits; the others wrap, as the whole
-    /// does not.
+    /// bits ([`update_fits_i32`]): from the vectors' [`Halves`], the sum's bits 16 to 47
+    /// as `hi hi 2^16 + (hi lo + lo hi) + (lo lo + 2^15) / 2^16`. Only the last term is
+    /// shifted, and it is exact in 32 bits; the others wrap, as the whole does not.
     fn update_halves(&mut self, updates: [(&[i32; N], &[i32; N]); 2]) {
         let [(k1, a1), (k2, a2)] = updates;
-        let (largest1, largest2) = (max_abs(a1), max_abs(a2));
-        let (h1, h2) = (Halves::of(a1, true), Halves::of(a2, true));
+        let (k1, a1) = (Halves::of(k1, false), Halves::of(a1, true));
+        let (k2, a2) = (Halves::of(k2, false), Halves::of(a2, true));
         for i in 0..N {
-            let bound = wide_mul_unsigned(k1[i].unsigned_abs(), largest1)
-                + wide_mul_unsigned(k2[i].unsigned_abs(), largest2)
-                + (1 << (GAIN_SHIFT - 1));
-            let row = &mut self.m[i];
-            if bound <= i32::MAX as u64 {
-                let (k1, k2) = (k1[i], k2[i]);
-                for j in i..N {
-                    let d = (k1 * a1[j] + k2 * a2[j] + (1 << (GAIN_SHIFT - 1))) >> GAIN_SHIFT;
-                    row[j] = row[j].saturating_sub(d).max(-i32::MAX);
-                }
-            } else {
-                let ([k1h, k1l], [k2h, k2l]) = (halves(k1[i], false), halves(k2[i], false));
-                for j in i..N {
-                    let high = (k1h * h1.hi[j]).wrapping_add(k2h * h2.hi[j]);
-                    let middle = (k1h * h1.lo[j])
-                        .wrapping_add(k1l * h1.hi[j])
-                        .wrapping_add(k2h * h2.lo[j])
-                        .wrapping_add(k2l * h2.hi[j]);
-                    let low = k1l * h1.lo[j] + k2l * h2.lo[j] + (1 << (GAIN_SHIFT - 1));
-                    let d = (high << 16)
-                        .wrapping_add(middle)
-                        .wrapping_add(low >> GAIN_SHIFT);
-                    row[j] = row[j].saturating_sub(d).max(-i32::MAX);
-                }
-            }
-            for j in i + 1..N {
-                self.m[j][i] = self.m[i][j];
+            for j in i..N {
+                let high = (k1.hi[i] * a1.hi[j]).wrapping_add(k2.hi[i] * a2.hi[j]);
+                let middle = (k1.hi[i] * a1.lo[j])
+                    .wrapping_add(k1.lo[i] * a1.hi[j])
+                    .wrapping_add(k2.hi[i] * a2.lo[j])
+                    .wrapping_add(k2.lo[i] * a2.hi[j]);
+                let low = k1.lo[i] * a1.lo[j] + k2.lo[i] * a2.lo[j] + (1 << (GAIN_SHIFT - 1));
+                let d = (high << 16)
+                    .wrapping_add(middle)
+                    .wrapping_add(low >> GAIN_SHIFT);
+                let v = self.m[i][j].saturating_sub(d).max(-i32::MAX);
+                self.m[i][j] = v;
+                self.m[j][i] = v;
             }
         }
     }

@@ -75,26 +75,25 @@ pub fn mul_q16_unit(x: i64, v: i32) -> i64 {
 }
 
 /// `k[i] * x / 2^shift` rounded to nearest for every `i`, the same as [`mul_shift`] on
-/// each: a single 32-bit multiply for each product that fits 31 bits with its rounding
-/// (a converged filter's gains times an innovation), [`mul_shift`] for any other.
+/// each: in single 32-bit multiplies when every product and its rounding fit 32 bits (a
+/// converged filter's gains times an innovation), else entry by entry.
 pub fn mul_shift_each<const L: usize>(k: &[i64; L], x: i64, shift: u32) -> [i64; L] {
+    let largest = k.iter().fold(0u64, |m, k| m.max(k.unsigned_abs()));
+    let small = largest <= i32::MAX as u64
+        && fits_i32(x)
+        && (1..31).contains(&shift)
+        && wide_mul_unsigned(largest as u32, x.unsigned_abs() as u32) + (1 << (shift - 1))
+            <= i32::MAX as u64;
     let mut out = [0i64; L];
-    if !(fits_i32(x) && (1..31).contains(&shift)) {
+    if small {
+        let x = x as i32;
+        for (o, &k) in out.iter_mut().zip(k) {
+            *o = i64::from(((k as i32) * x + (1 << (shift - 1))) >> shift);
+        }
+    } else {
         for (o, &k) in out.iter_mut().zip(k) {
             *o = mul_shift(k, x, shift);
         }
-        return out;
-    }
-    let (x, bias) = (x as i32, 1i32 << (shift - 1));
-    for (o, &k) in out.iter_mut().zip(k) {
-        let small = fits_i32(k)
-            && wide_mul_unsigned((k as i32).unsigned_abs(), x.unsigned_abs()) + bias as u64
-                <= i32::MAX as u64;
-        *o = if small {
-            i64::from(((k as i32) * x + bias) >> shift)
-        } else {
-            mul_shift(k, i64::from(x), shift)
-        };
     }
     out
 }
@@ -155,7 +154,7 @@ fn normalise(s: u64) -> (u32, i32) {
         for step in [16, 8, 4, 2, 1] {
             if m < 1 << (31 - step) {
                 m <<= step;
-                e -= step as i32;
+                e -= step;
             }
         }
         return (m, e);
@@ -216,24 +215,6 @@ impl Reciprocal {
         } else {
             self.times_wide(x, shift)
         }
-    }
-
-    /// [`Reciprocal::times`] for every entry of `x`. With a shift of 33 or more (a gain:
-    /// `x` and the quotient both 32-bit), the rounding needs only the product's high
-    /// word, worked out once for the vector.
-    pub fn times_each<const L: usize>(&self, x: &[i64; L], extra: u32) -> [i64; L] {
-        let shift = self.shift - extra as i32;
-        let mut out = [0i64; L];
-        for (o, &x) in out.iter_mut().zip(x) {
-            *o = if (33..62).contains(&shift) && fits_i32(x) {
-                // round_shift's: (p / 2^(shift - 1) + 1) / 2, from |p| < 2^62's high word.
-                let high = (wide_mul(x as i32, self.inv) >> 32) as i32;
-                i64::from(((high >> (shift - 33)) + 1) >> 1)
-            } else {
-                self.times(x, extra)
-            };
-        }
-        out
     }
 
     #[cold]
@@ -385,20 +366,6 @@ mod tests {
                 (got - want).abs() <= 1.0 + want.abs() * 2e-9,
                 "{a} / {s}: {got} vs {want}"
             );
-            let v = [
-                a,
-                -a,
-                a >> 7,
-                i64::from(i32::MAX),
-                i64::from(i32::MIN),
-                1 << 40,
-            ];
-            for extra in [0, 8, 12, 16, 24] {
-                let each = r.times_each(&v, extra);
-                for (e, &v) in each.iter().zip(&v) {
-                    assert_eq!(*e, r.times(v, extra), "{v} / {s} << {extra}");
-                }
-            }
         }
         assert!(Reciprocal::of(0).is_none());
         assert!(Reciprocal::of(-5).is_none());
