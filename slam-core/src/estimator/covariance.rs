@@ -38,6 +38,65 @@ fn narrow(v: &[i64; N]) -> Option<[i32; N]> {
     Some(out)
 }
 
+/// The largest magnitude in `v`.
+fn max_abs(v: &[i32; N]) -> u32 {
+    v.iter().fold(0, |m, x| m.max(x.unsigned_abs()))
+}
+
+/// Whether every `k1[i] a1[j] + k2[i] a2[j]`, rounded, fits an `i32`: then the update's
+/// products are the M0+'s single-cycle multiplies, and its result the same bit for bit.
+fn products_fit_i32(k1: &[i32; N], a1: &[i32; N], k2: &[i32; N], a2: &[i32; N]) -> bool {
+    let bound = wide_mul_unsigned(max_abs(k1), max_abs(a1))
+        + wide_mul_unsigned(max_abs(k2), max_abs(a2))
+        + (1 << (GAIN_SHIFT - 1));
+    bound <= i32::MAX as u64
+}
+
+/// Whether every rounded `(k1[i] a1[j] + k2[i] a2[j]) / 2^16` fits an `i32`: then
+/// [`Covariance::update_halves`] gives it exactly.
+fn update_fits_i32(k1: &[i32; N], a1: &[i32; N], k2: &[i32; N], a2: &[i32; N]) -> bool {
+    let bound = wide_mul_unsigned(max_abs(k1), max_abs(a1))
+        + wide_mul_unsigned(max_abs(k2), max_abs(a2))
+        + (1 << (GAIN_SHIFT - 1));
+    bound < 1 << (31 + GAIN_SHIFT)
+}
+
+/// A vector in 16-bit halves, `x = hi 2^16 + lo`, `|hi| <= 2^15`, and `lo` within
+/// `[-2^15, 2^15)` (a gain's, `low_up == false`) or `(-2^15, 2^15]` (a `P h`'s): every
+/// product of two halves then fits 31 bits, and so does the sum of two products of low
+/// halves and the rounding bias.
+struct Halves {
+    hi: [i32; N],
+    lo: [i32; N],
+}
+
+impl Halves {
+    fn of(v: &[i32; N], low_up: bool) -> Halves {
+        let mut h = Halves {
+            hi: [0; N],
+            lo: [0; N],
+        };
+        for ((hi, lo), &x) in h.hi.iter_mut().zip(h.lo.iter_mut()).zip(v) {
+            [*hi, *lo] = halves(x, low_up);
+        }
+        h
+    }
+}
+
+/// `x` as `[hi, lo]` of [`Halves`].
+fn halves(x: i32, low_up: bool) -> [i32; 2] {
+    let low = x & 0xFFFF;
+    let carry = if low_up {
+        low > 1 << 15
+    } else {
+        low >= 1 << 15
+    };
+    [
+        (x >> 16) + i32::from(carry),
+        if carry { low - (1 << 16) } else { low },
+    ]
+}
+
 /// `x` clamped into an `i32`, short of `i32::MIN` (whose negation would not fit).
 fn clamp32(x: i64) -> i32 {
     x.clamp(-(i32::MAX as i64), i32::MAX as i64) as i32
@@ -65,11 +124,18 @@ impl Covariance {
 
     /// `F P F^T + Q` for `F = I + D`, `D` given by its nonzero Q16 entries and `Q` by its
     /// diagonal, as `P + D P + (D P)^T + D P D^T + Q`: `D` has only pose rows, so `D P`
-    /// has only those rows and `D P D^T` only their block. Formed in 64 bits; a variance
+    /// has only those rows and `D P D^T` only their block. Formed in 32 bits where the
+    /// sizes of `P`, `D` and `Q` prove nothing overflows, in 64 bits otherwise; a variance
     /// past its ceiling then scales its row and column down (a congruence, which keeps
     /// the matrix positive definite) before the matrix goes back to 32 bits.
     #[inline(never)]
     pub fn propagate(&mut self, d: &[Entry], noise: &[i64; N], ceiling: &[i32; N]) {
+        if let Some(next) = self.propagated_narrow(d, noise) {
+            if (0..N).all(|i| next[i][i] <= ceiling[i]) {
+                self.m = next;
+                return;
+            }
+        }
         // A tick's Jacobian entries are a tick's displacement and turn: within 1.0 in
         // Q16 at any speed the robot drives, two 32-bit multiplies each.
         let next = if d.iter().all(|&(_, _, v)| v.unsigned_abs() <= 1 << 16) {
@@ -85,6 +151,67 @@ impl Covariance {
                 |p, v| mul_shift(p, i64::from(v), 16),
             )
         };
+        self.settle_propagated(next, noise, ceiling);
+    }
+
+    /// `P + D P + (D P)^T + D P D^T + Q` in 32 bits, the same as the 64-bit sum, when
+    /// that provably fits: `D` at most two entries a row, each within 1.0 and in a pose
+    /// row, `|P| < 2^27` and `0 <= Q < 2^29` (the sum is then below `9 |P| + Q + 10`).
+    /// `None` otherwise.
+    fn propagated_narrow(&self, d: &[Entry], noise: &[i64; N]) -> Option<[[i32; N]; N]> {
+        const POSE: usize = 3;
+        let mut per_row = [0u8; POSE];
+        for &(i, _, v) in d {
+            let count = per_row.get_mut(i as usize)?;
+            *count += 1;
+            if *count > 2 || v.unsigned_abs() > 1 << 16 {
+                return None;
+            }
+        }
+        let small = |x: &i32| x.unsigned_abs() < 1 << 27;
+        if !self.m.iter().all(|row| row.iter().all(small)) {
+            return None;
+        }
+        let mut q = [0i32; N];
+        for (q, &n) in q.iter_mut().zip(noise) {
+            *q = i32::try_from(n).ok().filter(|n| (0..1 << 29).contains(n))?;
+        }
+        let mut dp = [[0i32; N]; POSE];
+        for &(i, k, v) in d {
+            let (i, k) = (i as usize, k as usize);
+            for (out, &p) in dp[i].iter_mut().zip(&self.m[k]) {
+                *out += mul_q16_32(p, v);
+            }
+        }
+        let mut next = self.m;
+        for i in 0..N {
+            next[i][i] += q[i];
+        }
+        for i in 0..POSE {
+            for j in i..N {
+                next[i][j] += dp[i][j];
+                if j < POSE {
+                    next[i][j] += dp[j][i];
+                }
+            }
+        }
+        for &(j, k, v) in d {
+            let (j, k) = (j as usize, k as usize);
+            for i in 0..=j {
+                next[i][j] += mul_q16_32(dp[i][k], v);
+            }
+        }
+        for i in 0..N {
+            for j in 0..i {
+                next[i][j] = next[j][i];
+            }
+        }
+        Some(next)
+    }
+
+    /// The 64-bit sum's noise, ceilings and narrowing back to 32 bits.
+    #[cold]
+    fn settle_propagated(&mut self, next: [[i64; N]; N], noise: &[i64; N], ceiling: &[i32; N]) {
         let mut scale = [0i64; N];
         let mut any = false;
         for i in 0..N {
@@ -152,7 +279,7 @@ impl Covariance {
     /// `P h^T` for a sparse Q16 row `h` whose entries are within 1.0 (a direction's sine
     /// and cosine, which is all its callers pass): two 32-bit multiplies a product.
     #[inline(never)]
-    pub fn times_unit_row(&self, h: &[(State, i32)]) -> [i64; N] {
+    pub fn times_unit_row(&self, h: &[(State, i32); 2]) -> [i64; N] {
         let mut a = [0i64; N];
         for (out, row) in a.iter_mut().zip(&self.m) {
             *out = h.iter().fold(0i64, |sum, &(j, v)| {
@@ -189,23 +316,73 @@ impl Covariance {
         };
         let (k1, k2) = (gains(a1, s1), gains(a2, s2));
         match (narrow(&k1), narrow(a1), narrow(&k2), narrow(a2)) {
-            // A working filter's gains and `P h` fit 32 bits: 32 x 32 multiplies.
-            (Some(k1), Some(a1), Some(k2), Some(a2)) => {
-                for i in 0..N {
-                    for j in i..N {
-                        let d = (wide_mul(k1[i], a1[j])
-                            + wide_mul(k2[i], a2[j])
-                            + (1 << (GAIN_SHIFT - 1)))
-                            >> GAIN_SHIFT;
-                        let v = clamp32(i64::from(self.m[i][j]) - d);
-                        self.m[i][j] = v;
-                        self.m[j][i] = v;
-                    }
-                }
+            // A converged filter's products fit 31 bits: one multiply each.
+            (Some(k1), Some(a1), Some(k2), Some(a2)) if products_fit_i32(&k1, &a1, &k2, &a2) => {
+                self.update_narrow([(&k1, &a1), (&k2, &a2)])
             }
+            // Larger ones whose result fits 32 bits: four single-cycle multiplies of halves.
+            (Some(k1), Some(a1), Some(k2), Some(a2)) if update_fits_i32(&k1, &a1, &k2, &a2) => {
+                self.update_halves([(&k1, &a1), (&k2, &a2)])
+            }
+            // A working filter's gains and `P h` fit 32 bits: 32 x 32 multiplies.
+            (Some(k1), Some(a1), Some(k2), Some(a2)) => self.update_32x32([(&k1, &a1), (&k2, &a2)]),
             _ => self.update_wide([(&k1, a1), (&k2, a2)]),
         }
         [k1, k2]
+    }
+
+    /// [`Covariance::update`]'s `P - k1 a1^T - k2 a2^T` where every product and their
+    /// rounded sum fit 32 bits ([`products_fit_i32`]).
+    fn update_narrow(&mut self, updates: [(&[i32; N], &[i32; N]); 2]) {
+        let [(k1, a1), (k2, a2)] = updates;
+        for i in 0..N {
+            for j in i..N {
+                let d = (k1[i] * a1[j] + k2[i] * a2[j] + (1 << (GAIN_SHIFT - 1))) >> GAIN_SHIFT;
+                let v = self.m[i][j].saturating_sub(d).max(-i32::MAX);
+                self.m[i][j] = v;
+                self.m[j][i] = v;
+            }
+        }
+    }
+
+    /// [`Covariance::update`]'s `P - k1 a1^T - k2 a2^T` where each rounded sum fits 32
+    /// bits ([`update_fits_i32`]): from the vectors' [`Halves`], the sum's bits 16 to 47
+    /// as `hi hi 2^16 + (hi lo + lo hi) + (lo lo + 2^15) / 2^16`. Only the last term is
+    /// shifted, and it is exact in 32 bits; the others wrap, as the whole does not.
+    fn update_halves(&mut self, updates: [(&[i32; N], &[i32; N]); 2]) {
+        let [(k1, a1), (k2, a2)] = updates;
+        let (k1, a1) = (Halves::of(k1, false), Halves::of(a1, true));
+        let (k2, a2) = (Halves::of(k2, false), Halves::of(a2, true));
+        for i in 0..N {
+            for j in i..N {
+                let high = (k1.hi[i] * a1.hi[j]).wrapping_add(k2.hi[i] * a2.hi[j]);
+                let middle = (k1.hi[i] * a1.lo[j])
+                    .wrapping_add(k1.lo[i] * a1.hi[j])
+                    .wrapping_add(k2.hi[i] * a2.lo[j])
+                    .wrapping_add(k2.lo[i] * a2.hi[j]);
+                let low = k1.lo[i] * a1.lo[j] + k2.lo[i] * a2.lo[j] + (1 << (GAIN_SHIFT - 1));
+                let d = (high << 16)
+                    .wrapping_add(middle)
+                    .wrapping_add(low >> GAIN_SHIFT);
+                let v = self.m[i][j].saturating_sub(d).max(-i32::MAX);
+                self.m[i][j] = v;
+                self.m[j][i] = v;
+            }
+        }
+    }
+
+    /// [`Covariance::update`]'s `P - k1 a1^T - k2 a2^T` for 32-bit gains and `P h`.
+    fn update_32x32(&mut self, updates: [(&[i32; N], &[i32; N]); 2]) {
+        let [(k1, a1), (k2, a2)] = updates;
+        for i in 0..N {
+            for j in i..N {
+                let d = (wide_mul(k1[i], a1[j]) + wide_mul(k2[i], a2[j]) + (1 << (GAIN_SHIFT - 1)))
+                    >> GAIN_SHIFT;
+                let v = clamp32(i64::from(self.m[i][j]) - d);
+                self.m[i][j] = v;
+                self.m[j][i] = v;
+            }
+        }
     }
 
     #[cold]
@@ -244,10 +421,15 @@ impl Covariance {
     pub fn bound(&mut self, floor: &[i32; N], ceiling: &[i32; N]) {
         for i in 0..N {
             for j in i + 1..N {
-                // Variances are positive here: squares compared, 32 x 32 bits.
+                // Variances are positive here: squares compared, 32 x 32 bits, unless
+                // the covariance is within half the smaller variance (correlation below
+                // one half, and so below the limit), which needs no product.
                 let v = self.m[i][j].unsigned_abs();
-                let limit =
-                    wide_mul_unsigned(self.m[i][i].max(0) as u32, self.m[j][j].max(0) as u32);
+                let (a, b) = (self.m[i][i].max(0) as u32, self.m[j][j].max(0) as u32);
+                if v <= a.min(b) >> 1 {
+                    continue;
+                }
+                let limit = wide_mul_unsigned(a, b);
                 if wide_mul_unsigned(v, v) > limit - (limit >> 9) {
                     for k in [i, j] {
                         let d = self.m[k][k];
@@ -273,5 +455,127 @@ impl Covariance {
             }
         }
         self.m[i][i] = ceiling;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lcg::Lcg;
+
+    /// A random symmetric matrix with entries up to `2^bits`, a predict-shaped `D` and a
+    /// noise diagonal.
+    fn case(rng: &mut Lcg, bits: u32) -> (Covariance, [Entry; 6], [i64; N]) {
+        let mut m = [[0i32; N]; N];
+        for i in 0..N {
+            for j in i..N {
+                let v = rng.within((1 << bits) - 1) as i32;
+                m[i][j] = if i == j { v.abs() } else { v };
+                m[j][i] = m[i][j];
+            }
+        }
+        let mut q = || rng.within(1 << 16) as i32;
+        let d = [
+            (State::X, State::Heading, q()),
+            (State::Y, State::Heading, q()),
+            (State::X, State::FlowScale, q()),
+            (State::Y, State::FlowScale, q()),
+            (State::Heading, State::GyroScale, q()),
+            (State::Heading, State::GyroBias, q()),
+        ];
+        let noise = core::array::from_fn(|_| rng.within(1 << 28).abs());
+        (Covariance { m }, d, noise)
+    }
+
+    #[test]
+    fn narrow_propagation_is_the_wide_one_bit_for_bit() {
+        let mut rng = Lcg::new(17);
+        let ceiling = [i32::MAX; N];
+        let mut narrow_taken = 0;
+        for n in 0..20_000 {
+            let bits = 10 + (n % 19) as u32;
+            let (p, d, noise) = case(&mut rng, bits);
+            let used = &d[..2 + n % 5];
+            let mut wide = p;
+            let next = wide.propagated(
+                used,
+                |p, v| i64::from(mul_q16_32(p, v)),
+                |p, v| i64::from(mul_q16_32(clamp32(p), v)),
+            );
+            wide.settle_propagated(next, &noise, &ceiling);
+            let mut fast = p;
+            fast.propagate(used, &noise, &ceiling);
+            assert_eq!(fast, wide, "case {n}");
+            narrow_taken += usize::from(p.propagated_narrow(used, &noise).is_some());
+        }
+        assert!(narrow_taken > 10_000, "{narrow_taken}");
+    }
+
+    #[test]
+    fn update_in_32_bits_is_the_32x32_one_bit_for_bit() {
+        let mut rng = Lcg::new(5);
+        let mut narrow_taken = 0;
+        for n in 0..20_000 {
+            let bits = 8 + (n % 16) as u32;
+            let (p, _, _) = case(&mut rng, 20 + (n % 11) as u32);
+            let mut vector =
+                || -> [i32; N] { core::array::from_fn(|_| rng.within(1 << bits) as i32) };
+            let (k1, a1, k2, a2) = (vector(), vector(), vector(), vector());
+            if !products_fit_i32(&k1, &a1, &k2, &a2) {
+                continue;
+            }
+            narrow_taken += 1;
+            let mut fast = p;
+            fast.update_narrow([(&k1, &a1), (&k2, &a2)]);
+            let mut wide = p;
+            wide.update_32x32([(&k1, &a1), (&k2, &a2)]);
+            assert_eq!(fast, wide, "case {n}");
+        }
+        assert!(narrow_taken > 5_000, "{narrow_taken}");
+    }
+
+    #[test]
+    fn update_from_halves_is_the_32x32_one_bit_for_bit() {
+        let mut rng = Lcg::new(9);
+        let edges = [
+            0,
+            1,
+            -1,
+            1 << 15,
+            -(1 << 15),
+            (1 << 15) + 1,
+            (1 << 16) - (1 << 15),
+            0x7FFF_8000,
+            -0x7FFF_8000,
+            i32::MAX,
+            -i32::MAX,
+            i32::MIN,
+        ];
+        let mut taken = 0;
+        for n in 0..40_000 {
+            let bits = 8 + (n % 24) as u32;
+            let (p, _, _) = case(&mut rng, 20 + (n % 11) as u32);
+            let mut vector = || -> [i32; N] {
+                core::array::from_fn(|_| {
+                    let r = rng.within(1 << bits) as i32;
+                    if r % 7 == 0 {
+                        edges[r.unsigned_abs() as usize % edges.len()]
+                    } else {
+                        r
+                    }
+                })
+            };
+            let (k1, a1, k2, a2) = (vector(), vector(), vector(), vector());
+            if !update_fits_i32(&k1, &a1, &k2, &a2) {
+                continue;
+            }
+            taken += 1;
+            let mut fast = p;
+            fast.update_halves([(&k1, &a1), (&k2, &a2)]);
+            let mut wide = p;
+            wide.update_32x32([(&k1, &a1), (&k2, &a2)]);
+            assert_eq!(fast, wide, "case {n}");
+        }
+        assert!(taken > 10_000, "{taken}");
     }
 }

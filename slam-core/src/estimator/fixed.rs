@@ -23,13 +23,33 @@ pub fn wide_mul(a: i32, b: i32) -> i64 {
 
 /// `a * b` for unsigned 32-bit `a` and `b` (as [`wide_mul`]).
 #[inline(always)]
-pub fn wide_mul_unsigned(a: u32, b: u32) -> u64 {
+pub const fn wide_mul_unsigned(a: u32, b: u32) -> u64 {
     let (ah, al) = (a >> 16, a & 0xFFFF);
     let (bh, bl) = (b >> 16, b & 0xFFFF);
     let (mid, mid_carry) = (ah * bl).overflowing_add(al * bh);
     let (low, low_carry) = (al * bl).overflowing_add(mid << 16);
-    let high = ah * bh + (mid >> 16) + (u32::from(mid_carry) << 16) + u32::from(low_carry);
-    (u64::from(high) << 32) | u64::from(low)
+    let high = ah * bh + (mid >> 16) + ((mid_carry as u32) << 16) + low_carry as u32;
+    ((high as u64) << 32) | low as u64
+}
+
+/// `p / 2^shift` rounded to nearest, for `shift` below 63, worked in 32-bit halves: the
+/// M0+ has no 64-bit shifter, and the library's shifts are calls.
+#[inline(always)]
+pub fn round_shift(p: i64, shift: u32) -> i64 {
+    if shift == 0 {
+        return p;
+    }
+    // floor((p + 2^(s-1)) / 2^s) is floor((floor(p / 2^(s-1)) + 1) / 2).
+    let s = shift - 1;
+    let (hi, lo) = ((p >> 32) as i32, p as u32);
+    let q = if s == 0 {
+        p
+    } else if s < 32 {
+        (i64::from(hi >> s) << 32) | i64::from((lo >> s) | ((hi as u32) << (32 - s)))
+    } else {
+        i64::from(hi >> (s - 32))
+    };
+    (q + 1) >> 1
 }
 
 /// `a * b / 2^shift`, rounded to nearest; saturating.
@@ -37,10 +57,45 @@ pub fn wide_mul_unsigned(a: u32, b: u32) -> u64 {
 pub fn mul_shift(a: i64, b: i64, shift: u32) -> i64 {
     if fits_i32(a) && fits_i32(b) && shift < 62 {
         // |a b| <= 2^62: the product and the rounding bias fit.
-        (wide_mul(a as i32, b as i32) + ((1i64 << shift) >> 1)) >> shift
+        round_shift(wide_mul(a as i32, b as i32), shift)
     } else {
         wide_mul_shift(a, b, shift)
     }
+}
+
+/// `x * v / 2^16` rounded to nearest for a Q16 `v` within 1.0 (a sine or cosine): two
+/// 32-bit multiplies when `x` fits 32 bits, the same as [`mul_shift`].
+#[inline]
+pub fn mul_q16_unit(x: i64, v: i32) -> i64 {
+    if fits_i32(x) && v.unsigned_abs() <= 1 << 16 {
+        i64::from(crate::pose::mul_q16_32(x as i32, v))
+    } else {
+        mul_shift(x, i64::from(v), 16)
+    }
+}
+
+/// `k[i] * x / 2^shift` rounded to nearest for every `i`, the same as [`mul_shift`] on
+/// each: in single 32-bit multiplies when every product and its rounding fit 32 bits (a
+/// converged filter's gains times an innovation), else entry by entry.
+pub fn mul_shift_each<const L: usize>(k: &[i64; L], x: i64, shift: u32) -> [i64; L] {
+    let largest = k.iter().fold(0u64, |m, k| m.max(k.unsigned_abs()));
+    let small = largest <= i32::MAX as u64
+        && fits_i32(x)
+        && (1..31).contains(&shift)
+        && wide_mul_unsigned(largest as u32, x.unsigned_abs() as u32) + (1 << (shift - 1))
+            <= i32::MAX as u64;
+    let mut out = [0i64; L];
+    if small {
+        let x = x as i32;
+        for (o, &k) in out.iter_mut().zip(k) {
+            *o = i64::from(((k as i32) * x + (1 << (shift - 1))) >> shift);
+        }
+    } else {
+        for (o, &k) in out.iter_mut().zip(k) {
+            *o = mul_shift(k, x, shift);
+        }
+    }
+    out
 }
 
 #[cold]
@@ -68,7 +123,8 @@ fn round_shift_wide(p: i128, shift: i32) -> i64 {
 #[inline]
 pub const fn square(x: i64) -> i64 {
     if fits_i32(x) {
-        x * x
+        let a = (x as i32).unsigned_abs();
+        wide_mul_unsigned(a, a) as i64
     } else {
         x.saturating_mul(x)
     }
@@ -89,6 +145,37 @@ pub struct Reciprocal {
     shift: i32,
 }
 
+/// `(m, e)` with `m = s / 2^e` (rounded down) in `[2^30, 2^31)`, for `s > 0`: by halving
+/// steps in 32 bits, where `leading_zeros` and 64-bit shifts are library calls on the M0+.
+fn normalise(s: u64) -> (u32, i32) {
+    let (hi, lo) = ((s >> 32) as u32, s as u32);
+    if hi == 0 && lo < 1 << 31 {
+        let (mut m, mut e) = (lo, 0);
+        for step in [16, 8, 4, 2, 1] {
+            if m < 1 << (31 - step) {
+                m <<= step;
+                e -= step;
+            }
+        }
+        return (m, e);
+    }
+    // s >= 2^31: e = (bits of hi) + 1, from 1 to 33.
+    let (mut top, mut bits) = (hi, 0u32);
+    for step in [16, 8, 4, 2, 1] {
+        if top >= 1 << step {
+            top >>= step;
+            bits += step;
+        }
+    }
+    let e = if hi == 0 { 1 } else { bits + 2 };
+    let m = match e {
+        1..=31 => (hi << (32 - e)) | (lo >> e),
+        32 => hi,
+        _ => hi >> (e - 32),
+    };
+    (m, e as i32)
+}
+
 impl Reciprocal {
     /// The reciprocal of `s`; `None` unless `s > 0`.
     ///
@@ -98,11 +185,9 @@ impl Reciprocal {
         if s <= 0 {
             return None;
         }
-        let width = 64 - s.leading_zeros() as i32; // s in [2^(width-1), 2^width)
-        let e = width - 31;
-        let m = (if e >= 0 { s >> e } else { s << -e }) as u32; // [2^30, 2^31)
-                                                                // With d = m / 2^31 in [0.5, 1), 1 / d is x / 2^30. First guess
-                                                                // 48/17 - 32/17 d, within 1/17; each step squares the error.
+        let (m, e) = normalise(s as u64); // s = m 2^e, m in [2^30, 2^31)
+                                          // With d = m / 2^31 in [0.5, 1), 1 / d is x / 2^30. First guess
+                                          // 48/17 - 32/17 d, within 1/17; each step squares the error.
         let mut x = 3_031_741_621u32 - (wide_mul_unsigned(m, 4_042_322_161) >> 32) as u32;
         for _ in 0..3 {
             // e = 1 - d x, in Q32 (the product d x is Q61: m is Q31, x is Q30).
@@ -126,7 +211,7 @@ impl Reciprocal {
         let shift = self.shift - extra as i32;
         if fits_i32(x) && (1..62).contains(&shift) {
             // |x inv| < 2^62.
-            (wide_mul(x as i32, self.inv) + (1i64 << (shift - 1))) >> shift
+            round_shift(wide_mul(x as i32, self.inv), shift as u32)
         } else {
             self.times_wide(x, shift)
         }
@@ -151,6 +236,93 @@ mod tests {
         assert_eq!(mul_shift(1 << 40, 1 << 40, 16), i64::MAX);
         assert_eq!(mul_shift(i64::MAX, i64::MAX, 0), i64::MAX);
         assert_eq!(mul_shift(i64::MIN, i64::MAX, 0), i64::MIN);
+    }
+
+    #[test]
+    fn round_shift_is_the_64_bit_one() {
+        let mut x = 0x1234_5678_9ABC_DEF0u64;
+        for _ in 0..100_000 {
+            x = x.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            let p = (x as i64) >> (x % 40);
+            for shift in [(x >> 40) as u32 % 63, 1, 16, 31, 32, 33, 62] {
+                let want = if shift == 0 {
+                    p
+                } else {
+                    ((i128::from(p) + (1 << (shift - 1))) >> shift) as i64
+                };
+                assert_eq!(round_shift(p, shift), want, "{p} >> {shift}");
+            }
+        }
+        assert_eq!(round_shift(-3, 1), -1);
+        assert_eq!(round_shift(3, 1), 2);
+        assert_eq!(round_shift(i64::MIN, 62), -2);
+    }
+
+    #[test]
+    fn the_32_bit_shortcuts_are_mul_shift() {
+        let mut rng = 0x0DDB_1A5E_5BAD_5EEDu64;
+        let mut next = || {
+            rng = rng.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            rng
+        };
+        for _ in 0..100_000 {
+            let r = next();
+            let x = (r as i64) >> (r % 50 + 14);
+            let v = ((next() >> 40) as i64 % ((1 << 17) + 1)) - (1 << 16);
+            assert_eq!(mul_q16_unit(x, v as i32), mul_shift(x, v, 16), "{x} {v}");
+            let r = next();
+            let k: [i64; 6] =
+                core::array::from_fn(|i| (next() as i64) >> (r % 40 + 24 + i as u64 % 3));
+            let x = (next() as i64) >> (r % 56 + 8);
+            let shift = (r >> 32) as u32 % 20 + 1;
+            let want: [i64; 6] = core::array::from_fn(|i| mul_shift(k[i], x, shift));
+            assert_eq!(mul_shift_each(&k, x, shift), want, "{k:?} {x} {shift}");
+        }
+    }
+
+    #[test]
+    fn normalise_is_the_leading_zeros_one() {
+        let mut x = 0x5DEE_CE66_D1CE_4E5Bu64;
+        for n in 0..200_000u64 {
+            x = x.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            let s = (x >> (n % 64)).max(1) >> 1 | (n & 1);
+            let s = s.max(1);
+            let width = 64 - s.leading_zeros() as i32;
+            let e = width - 31;
+            let m = (if e >= 0 { s >> e } else { s << -e }) as u32;
+            assert_eq!(normalise(s), (m, e), "{s}");
+        }
+        for s in [
+            1u64,
+            2,
+            3,
+            (1 << 31) - 1,
+            1 << 31,
+            u32::MAX as u64,
+            1 << 32,
+            i64::MAX as u64,
+        ] {
+            let width = 64 - s.leading_zeros() as i32;
+            let e = width - 31;
+            let m = (if e >= 0 { s >> e } else { s << -e }) as u32;
+            assert_eq!(normalise(s), (m, e), "{s}");
+        }
+    }
+
+    #[test]
+    fn square_is_the_product() {
+        for x in [
+            0i64,
+            1,
+            -1,
+            46_341,
+            -46_341,
+            i32::MAX as i64,
+            -(i32::MAX as i64),
+            1 << 31,
+        ] {
+            assert_eq!(square(x), x.saturating_mul(x));
+        }
     }
 
     #[test]

@@ -2,7 +2,7 @@
 
 use super::covariance::{GAIN_SHIFT, N};
 use super::filter::Estimator;
-use super::fixed::{fits_i32, mul_shift, square, Reciprocal};
+use super::fixed::{fits_i32, mul_q16_unit, mul_shift, mul_shift_each, square, Reciprocal};
 use super::units::{self, FINE_SHIFT};
 use super::{State, TagRefusal};
 use crate::angle::{sin_cos_of_vector, Angle};
@@ -14,17 +14,27 @@ use crate::tagfix::{CameraConfig, KnownTag};
 /// (whose entries grow as one over the range).
 const MIN_JACOBIAN_RANGE_MM: i64 = 50;
 
+/// Sines (Q16) below this, 0.1, take their angle from [`asin_small`].
+const ASIN_SERIES_BELOW: i64 = 6554;
+
+/// `asin(x) = x + x^3 / 6` in Q16 for `|x|` below [`ASIN_SERIES_BELOW`], where every
+/// product fits 32 bits and the cube's sixth (below 70) is a multiply by `2^16 / 6`:
+/// the M0+ has no divider.
+fn asin_small(x: i32) -> i32 {
+    let cube = (((x * x) >> 16) * x) >> 16;
+    let sixth = (cube.abs() * 10_923) >> 16;
+    x + if cube < 0 { -sixth } else { sixth }
+}
+
 /// `h a` for a sparse Q16 row `h`.
 fn dot(h: &[(State, i32)], a: &[i64; N]) -> i64 {
-    h.iter()
-        .map(|&(j, v)| mul_shift(a[j as usize], i64::from(v), 16))
-        .sum()
+    h.iter().map(|&(j, v)| mul_q16_unit(a[j as usize], v)).sum()
 }
 
 /// `nu^2 / s` in Q8, saturating.
 fn normalised_square_q8(nu: i64, s: &Reciprocal) -> i64 {
     if fits_i32(nu) {
-        s.times(nu * nu, 8)
+        s.times(square(nu), 8)
     } else {
         i64::MAX
     }
@@ -102,8 +112,8 @@ impl Estimator {
         if cos_nu <= 0 {
             return Err(TagRefusal::Gate);
         }
-        let nu_bearing = if sin_nu.abs() < 6554 {
-            sin_nu + ((((sin_nu * sin_nu) >> 16) * sin_nu) >> 16) / 6
+        let nu_bearing = if sin_nu.abs() < ASIN_SERIES_BELOW {
+            i64::from(asin_small(sin_nu as i32))
         } else {
             units::heading_from_bits(i64::from(
                 Angle::of_vector(sin_nu, i64::from(cos_nu)).signed_bits(),
@@ -156,8 +166,8 @@ impl Estimator {
         let nu_bearing = nu_bearing.saturating_sub(mul_shift(c, nu_range, 16));
         let s_bearing = s_bearing.saturating_sub(mul_shift(c, s_cross, 16));
         let mut a_given = a_bearing;
-        for (a, r) in a_given.iter_mut().zip(a_range) {
-            *a = a.saturating_sub(mul_shift(c, r, 16));
+        for (a, r) in a_given.iter_mut().zip(mul_shift_each(&a_range, c, 16)) {
+            *a = a.saturating_sub(r);
         }
         let Some(inv_bearing) = Reciprocal::of(s_bearing) else {
             return Err(TagRefusal::Gate);
@@ -171,13 +181,10 @@ impl Estimator {
         let [k_range, k_bearing] = self
             .p
             .update([(&a_range, &inv_range), (&a_given, &inv_bearing)]);
-        let mut fine = [0i64; N];
-        for ((f, kr), kb) in fine.iter_mut().zip(k_range).zip(k_bearing) {
-            *f = mul_shift(kr, nu_range, GAIN_SHIFT - FINE_SHIFT).saturating_add(mul_shift(
-                kb,
-                nu_bearing,
-                GAIN_SHIFT - FINE_SHIFT,
-            ));
+        let mut fine = mul_shift_each(&k_range, nu_range, GAIN_SHIFT - FINE_SHIFT);
+        let by_bearing = mul_shift_each(&k_bearing, nu_bearing, GAIN_SHIFT - FINE_SHIFT);
+        for (f, b) in fine.iter_mut().zip(by_bearing) {
+            *f = f.saturating_add(b);
         }
         self.bound_variances();
         let [fx, fy, fh, gs, gb, fs] = fine;
@@ -191,5 +198,18 @@ impl Estimator {
             y_um: shift(then.y_um, fy),
             heading: then.heading + Angle::from_bits(units::bits_from_fine_heading(fh) as u32),
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn asin_small_is_the_series_divided() {
+        for x in -(ASIN_SERIES_BELOW - 1)..ASIN_SERIES_BELOW {
+            let want = x + ((((x * x) >> 16) * x) >> 16) / 6;
+            assert_eq!(i64::from(asin_small(x as i32)), want, "{x}");
+        }
     }
 }
