@@ -13,10 +13,19 @@ use slam_core::{
 
 const DT_US: u32 = 100_000;
 
+/// The seed's configuration with `localiser` and, if `matching`, the matcher. The start is
+/// known to 2 mm, the prior the matcher was built with: with the shipped 1 mm prior the
+/// matched drive below ends 153 mm off, worse than the filter without matching (118 mm),
+/// and with 2 or 3 mm 36-37 mm. The matcher's sensitivity to the start prior is an open
+/// problem of the scan-matching issue; this test holds what it does at 2 mm.
 fn config(localiser: Localiser, matching: bool) -> SlamConfig {
     SlamConfig {
         localiser,
         matching: matching.then_some(MatchingConfig::SEED),
+        estimator: slam_core::EstimatorConfig {
+            initial_position_mm: 2,
+            ..slam_core::EstimatorConfig::SEED
+        },
         ..SlamConfig::seed_mat()
     }
 }

@@ -279,7 +279,7 @@ impl Covariance {
     /// `P h^T` for a sparse Q16 row `h` whose entries are within 1.0 (a direction's sine
     /// and cosine, which is all its callers pass): two 32-bit multiplies a product.
     #[inline(never)]
-    pub fn times_unit_row(&self, h: &[(State, i32); 2]) -> [i64; N] {
+    pub fn times_unit_row<const K: usize>(&self, h: &[(State, i32); K]) -> [i64; N] {
         let mut a = [0i64; N];
         for (out, row) in a.iter_mut().zip(&self.m) {
             *out = h.iter().fold(0i64, |sum, &(j, v)| {
