@@ -7,7 +7,9 @@ use crate::estimator::{
 use crate::frame::{DepthScan, SensorFrame, BEAMS};
 use crate::grid::{Evidence, GridGeometry, GridMap};
 use crate::history::PoseHistory;
-use crate::matcher::{Match, MatcherConfig, SeedMatcher, Sweep, SWEEP_TICKS};
+use crate::matcher::{Match, MatcherConfig, SeedMatcher};
+#[cfg(feature = "matching")]
+use crate::matcher::{Sweep, SWEEP_TICKS};
 use crate::odometry::{self, OdometryConfig};
 use crate::pose::{mul_q16, Pose, RigidMotion};
 use crate::tagfix::{self, CameraConfig, FixConfig, FixOutcome, FixRejection, KnownTag, TagMap};
@@ -111,7 +113,8 @@ pub enum ConfigError {
     FocalLength,
     /// The depth sensor's range limit must be longer than a cell.
     MaxRange,
-    /// Matching needs the filter, and a window the matcher can search.
+    /// Matching needs the filter, a window the matcher can search, and the core built
+    /// with its `matching` feature.
     Matching,
 }
 
@@ -173,7 +176,7 @@ impl SlamConfig {
             return Err(ConfigError::MaxRange);
         }
         if let Some(m) = &self.matching {
-            if self.localiser != Localiser::Filter {
+            if self.localiser != Localiser::Filter || !cfg!(feature = "matching") {
                 return Err(ConfigError::Matching);
             }
             SeedMatcher::new(m.matcher, self.geometry.cell_mm)
@@ -254,7 +257,9 @@ pub struct Slam<const W: usize, const H: usize> {
     gate_rejections_in_a_row: u8,
     estimator: Estimator,
     /// The scans of the last second, not yet in the map ([`SlamConfig::matching`]).
+    #[cfg(feature = "matching")]
     sweep: Sweep<SWEEP_TICKS>,
+    #[cfg(feature = "matching")]
     matcher: SeedMatcher,
     match_counters: MatchCounters,
     last_match: Option<Match>,
@@ -272,7 +277,9 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             counters: Counters::default(),
             gate_rejections_in_a_row: 0,
             estimator: Estimator::new(config.estimator),
+            #[cfg(feature = "matching")]
             sweep: Sweep::new(),
+            #[cfg(feature = "matching")]
             matcher: SeedMatcher::new(
                 config.matching.map_or(MatcherConfig::SEED, |m| m.matcher),
                 config.geometry.cell_mm,
@@ -291,6 +298,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         self.counters = Counters::default();
         self.gate_rejections_in_a_row = 0;
         self.estimator = Estimator::new(self.config.estimator);
+        #[cfg(feature = "matching")]
         self.sweep.clear();
         self.match_counters = MatchCounters::default();
         self.last_match = None;
@@ -387,6 +395,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             .as_ref()
             .map(|scan| (scan, self.history.at(frame.depth_age_us)));
         let cells_written = match scan {
+            #[cfg(feature = "matching")]
             Some((scan, Some(then))) if self.config.matching.is_some() => {
                 self.sweep_scan(scan, &then)
             }
@@ -441,6 +450,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
                     if let Some(then) = then {
                         let motion = RigidMotion::carrying(&then, &corrected);
                         self.history.carry(&motion);
+                        #[cfg(feature = "matching")]
                         self.sweep.carry(&motion);
                         self.pose = self.history.newest();
                     }
@@ -465,6 +475,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         outcome
     }
 
+    #[cfg(feature = "matching")]
     /// With matching on: the scan joins the sweep, the scan leaving the sweep goes into
     /// the map (so the map never holds a beam the sweep matches against it), and the
     /// sweep is matched. Returns the cells written.
