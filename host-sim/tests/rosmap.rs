@@ -104,11 +104,27 @@ fn assert_same(loaded: &Loaded, map: &MapSnapshot) {
     );
 }
 
+/// `host-sim ARGS`, which must succeed.
+fn succeed(args: &[&str]) {
+    let out = host_sim(args);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "host-sim {args:?}: {err}");
+}
+
+/// The final map of the seed scenario's own run in `mode`, in process.
+fn seed_map(mode: PoseMode) -> MapSnapshot {
+    let scenario = Scenario::load(&seed_path()).unwrap_or_else(|e| panic!("{e}"));
+    match run(&scenario, mode, scenario.seed) {
+        Ok(out) => out.record.map,
+        Err(e) => panic!("{e}"),
+    }
+}
+
 #[test]
 fn run_exports_its_final_map_as_a_map_server_pair() {
     let dir = scratch("run");
     let seed = seed_path();
-    let out = host_sim(&[
+    succeed(&[
         "run",
         seed.to_str().unwrap_or_default(),
         "--pose",
@@ -116,18 +132,8 @@ fn run_exports_its_final_map_as_a_map_server_pair() {
         "--export-map",
         dir.to_str().unwrap_or_default(),
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let scenario = Scenario::load(&seed).unwrap_or_else(|e| panic!("{e}"));
-    let map = match run(&scenario, PoseMode::Truth, scenario.seed) {
-        Ok(out) => out.record.map,
-        Err(e) => panic!("{e}"),
-    };
     let loaded = load(&dir);
-    assert_same(&loaded, &map);
+    assert_same(&loaded, &seed_map(PoseMode::Truth));
     // Not a blank page: the walls and the free floor are there.
     let count = |c| loaded.cells.iter().filter(|&&x| x == c).count();
     assert!(count(CellBelief::Occupied) > 100 && count(CellBelief::Free) > 1000);
@@ -139,7 +145,7 @@ fn view_exports_the_robots_map_from_its_telemetry() {
     let dir = scratch("view");
     let stream = scratch("stream.bin");
     let seed = seed_path();
-    let out = host_sim(&[
+    succeed(&[
         "run",
         seed.to_str().unwrap_or_default(),
         "--pose",
@@ -147,28 +153,13 @@ fn view_exports_the_robots_map_from_its_telemetry() {
         "--telemetry",
         stream.to_str().unwrap_or_default(),
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let out = host_sim(&[
+    succeed(&[
         "view",
         stream.to_str().unwrap_or_default(),
         "--export-map",
         dir.to_str().unwrap_or_default(),
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let scenario = Scenario::load(&seed).unwrap_or_else(|e| panic!("{e}"));
-    let map = match run(&scenario, PoseMode::Slam, scenario.seed) {
-        Ok(out) => out.record.map,
-        Err(e) => panic!("{e}"),
-    };
-    assert_same(&load(&dir), &map);
+    assert_same(&load(&dir), &seed_map(PoseMode::Slam));
     let _ = std::fs::remove_dir_all(&dir);
     let _ = std::fs::remove_file(&stream);
 }

@@ -236,6 +236,24 @@ impl Estimator {
         }
     }
 
+    /// Ends an update whose state correction, in fine units, is `fine`: the variances
+    /// back within bounds, the calibration corrected, and the pose `then` (the update's
+    /// moment) moved by the correction.
+    pub(super) fn corrected(&mut self, then: &Pose, fine: [i64; N]) -> Pose {
+        self.bound_variances();
+        let [fx, fy, fh, gs, gb, fs] = fine;
+        self.correct_calibration([gs, gb, fs]);
+        let shift = |um: i32, fine: i64| {
+            (i64::from(um) + units::um_from_fine_position(fine))
+                .clamp(i32::MIN as i64, i32::MAX as i64) as i32
+        };
+        Pose {
+            x_um: shift(then.x_um, fx),
+            y_um: shift(then.y_um, fy),
+            heading: then.heading + Angle::from_bits(units::bits_from_fine_heading(fh) as u32),
+        }
+    }
+
     /// Keeps the variances within bounds after an update.
     pub(super) fn bound_variances(&mut self) {
         self.p.bound_variances(&FLOOR, &CEILING);

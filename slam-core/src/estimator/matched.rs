@@ -15,7 +15,6 @@ use super::filter::Estimator;
 use super::fixed::{fits_i32, mul_shift, square, Reciprocal};
 use super::units::{self, FINE_SHIFT};
 use super::State;
-use crate::angle::Angle;
 use crate::matcher::{Match, MatchRefusal, Pins};
 use crate::pose::Pose;
 
@@ -291,18 +290,7 @@ impl Estimator {
             trial.update_pair(pair[0], pair.get(1).copied(), &mut fine)?;
         }
         *self = trial;
-        self.bound_variances();
-        let [fx, fy, fh, gs, gb, fs] = fine;
-        self.correct_calibration([gs, gb, fs]);
-        let shift = |um: i32, fine: i64| {
-            (i64::from(um) + units::um_from_fine_position(fine))
-                .clamp(i32::MIN as i64, i32::MAX as i64) as i32
-        };
-        Ok(Pose {
-            x_um: shift(then.x_um, fx),
-            y_um: shift(then.y_um, fy),
-            heading: then.heading + Angle::from_bits(units::bits_from_fine_heading(fh) as u32),
-        })
+        Ok(self.corrected(&then, fine))
     }
 
     /// One or two scalar measurements as one update, the second conditioned on the first

@@ -186,18 +186,7 @@ impl Estimator {
         for (f, b) in fine.iter_mut().zip(by_bearing) {
             *f = f.saturating_add(b);
         }
-        self.bound_variances();
-        let [fx, fy, fh, gs, gb, fs] = fine;
-        self.correct_calibration([gs, gb, fs]);
-        let shift = |um: i32, fine: i64| {
-            (i64::from(um) + units::um_from_fine_position(fine))
-                .clamp(i32::MIN as i64, i32::MAX as i64) as i32
-        };
-        Ok(Pose {
-            x_um: shift(then.x_um, fx),
-            y_um: shift(then.y_um, fy),
-            heading: then.heading + Angle::from_bits(units::bits_from_fine_heading(fh) as u32),
-        })
+        Ok(self.corrected(&then, fine))
     }
 }
 
