@@ -17,11 +17,12 @@ pub const TELEMETRY_BAUD: u32 = 921_600;
 /// deadline from overflowing, which would panic.
 const MAX_VIEW_SECONDS: f64 = 1e9;
 
-/// BugBot's simulated mat and robot: run a scenario, watch a robot's telemetry, serve
-/// the emulator, or benchmark.
+/// BugBot's simulated mat and robot: run a scenario, watch a robot's telemetry, replay
+/// its inputs, serve the emulator, or benchmark.
 ///
 /// Exit codes: 0 done, 1 the pictures or the stream could not be written, 2 bad
-/// arguments, scenario or stream.
+/// arguments, scenario or stream, 3 a replay with the robot's settings that differs from
+/// the robot's run.
 #[derive(Debug, Parser)]
 #[command(name = "host-sim", version)]
 pub struct Cli {
@@ -55,8 +56,9 @@ pub struct RunArgs {
     /// The scenario file (TOML).
     #[arg(value_name = "SCENARIO", value_hint = ValueHint::FilePath)]
     pub scenario: PathBuf,
-    /// Which pose the mapper uses: the simulator's truth, odometry alone, or odometry
-    /// corrected by two-tag fixes.
+    /// Which pose the mapper uses: the simulator's truth, odometry alone, odometry
+    /// corrected by two-tag fixes (the seed's), the filter on every tag sighting (what the
+    /// firmware flies), or the filter on scan matching alone, no tags (in the works).
     #[arg(long, value_name = "MODE", default_value = "tags", value_parser = pose_mode())]
     pub pose: PoseMode,
     /// Seed of the noise (default: the scenario's `seed`).
