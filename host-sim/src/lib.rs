@@ -39,6 +39,7 @@
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod bounded;
 pub mod consistency;
 pub mod picture;
 pub mod record;

@@ -27,7 +27,7 @@ use host_sim::run::{run, run_with_telemetry, Figures, PoseMode};
 use host_sim::telemetry::estimator_line;
 use host_sim::telemetry::{Recording, TelemetryWriter};
 use host_sim::truth::{parse_truth, TruthSample};
-use host_sim::{picture, RunRecord, Scenario};
+use host_sim::{bounded, picture, RunRecord, Scenario};
 use slam_core::SeedSlam;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -249,8 +249,7 @@ fn firmware_scenario() -> PathBuf {
 fn cmd_replay(args: ReplayArgs) -> Result<(), Failure> {
     let shown = args.file.display().to_string();
     let scenario = load(&args.scenario.unwrap_or_else(firmware_scenario))?;
-    let bytes =
-        std::fs::read(&args.file).map_err(|e| Failure(2, format!("cannot read {shown}: {e}")))?;
+    let bytes = read_recording("stream", &args.file)?;
     let replayed = host_sim::replay::replay(&scenario, &bytes, args.pose)
         .map_err(|e| Failure(2, format!("{shown}: {e}")))?;
     let mut recording = Recording::new();
@@ -305,9 +304,28 @@ fn cmd_replay(args: ReplayArgs) -> Result<(), Failure> {
 
 /// Reads a truth file (see `host_sim::truth`); a bad line is named.
 fn load_truth(path: &Path) -> Result<Vec<TruthSample>, Failure> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| Failure(2, format!("cannot read truth file {}: {e}", path.display())))?;
+    let bytes = read_recording("truth file", path)?;
+    let text = String::from_utf8(bytes)
+        .map_err(|e| Failure(2, format!("truth file {}: not UTF-8: {e}", path.display())))?;
     parse_truth(&text).map_err(|e| Failure(2, format!("truth file {}: {e}", path.display())))
+}
+
+/// A recorded stream or truth file (`what`), whole, if it is no longer than
+/// [`bounded::MAX_RECORDING_BYTES`].
+fn read_recording(what: &str, path: &Path) -> Result<Vec<u8>, Failure> {
+    let max = bounded::MAX_RECORDING_BYTES;
+    bounded::read(path, max)
+        .map_err(|e| Failure(2, format!("cannot read {what} {}: {e}", path.display())))?
+        .ok_or_else(|| {
+            Failure(
+                2,
+                format!(
+                    "{what} {}: longer than {} MiB, more than this tool reads",
+                    path.display(),
+                    max >> 20
+                ),
+            )
+        })
 }
 
 fn print_summary(name: &str, mode: PoseMode, seed: u64, f: &Figures) {

@@ -279,6 +279,11 @@ pub enum RouteStep {
 pub enum ScenarioError {
     /// The file could not be read.
     Io(std::io::Error),
+    /// The file is longer than any scenario, in bytes.
+    TooLong {
+        /// The longest a scenario file may be.
+        max: u64,
+    },
     /// Not valid TOML, or a field missing or of the wrong type (toml names it).
     Parse(String),
     /// A field whose value makes no sense.
@@ -294,6 +299,12 @@ impl fmt::Display for ScenarioError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             ScenarioError::Io(e) => write!(f, "cannot read scenario: {e}"),
+            ScenarioError::TooLong { max } => {
+                write!(
+                    f,
+                    "scenario file is longer than {max} bytes: is it a scenario?"
+                )
+            }
             ScenarioError::Parse(e) => write!(f, "scenario is not valid: {e}"),
             ScenarioError::Invalid { field, problem } => {
                 write!(f, "scenario field `{field}`: {problem}")
@@ -407,7 +418,12 @@ pub const MAX_CAMERA_LATENCY_MS: f64 = 1000.0;
 impl Scenario {
     /// Reads and checks a scenario file.
     pub fn load(path: &Path) -> Result<Scenario, ScenarioError> {
-        let text = std::fs::read_to_string(path).map_err(ScenarioError::Io)?;
+        let max = crate::bounded::MAX_SCENARIO_BYTES;
+        let bytes = crate::bounded::read(path, max)
+            .map_err(ScenarioError::Io)?
+            .ok_or(ScenarioError::TooLong { max })?;
+        let text = String::from_utf8(bytes)
+            .map_err(|e| ScenarioError::Parse(format!("not UTF-8: {e}")))?;
         Scenario::parse(&text)
     }
 

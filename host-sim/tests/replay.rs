@@ -205,6 +205,15 @@ fn a_stream_without_inputs_is_a_clear_error() {
 }
 
 #[test]
+fn a_stream_too_long_to_hold_is_refused_without_reading_it_all() {
+    // An endless device: read up to the bound, then refused with the reason.
+    let out = host_sim(&["replay", "/dev/zero"]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("/dev/zero") && err.contains("MiB"), "{err}");
+}
+
+#[test]
 fn a_stream_that_lies_is_reported_not_a_panic() {
     let scenario = seed();
     let all = messages(&recorded(&scenario, PoseMode::Slam));

@@ -80,6 +80,13 @@ fn the_shipped_list_is_the_directory_and_every_one_loads() {
 }
 
 #[test]
+fn a_file_longer_than_any_scenario_is_refused_unread() {
+    let (code, out, err) = run_cli(Path::new("/dev/zero"), &[]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("longer than") && out.is_empty(), "{err}");
+}
+
+#[test]
 fn a_world_may_have_no_tags() {
     let tagless: String = seed_text()
         .split("[[world.tags]]")
