@@ -4,7 +4,7 @@
 
 mod reference;
 
-use reference::{fan_angles, RefPose};
+use reference::RefPose;
 use slam_core::matcher::SWEEP_TICKS;
 use slam_core::{
     ConfigError, DepthScan, FlowDelta, GyroRate, Localiser, MatchingConfig, Pose, SensorFrame,
@@ -65,15 +65,7 @@ fn drive(localiser: Localiser, matching: bool) -> (f64, Slam<46, 46>) {
     let mut worst: f64 = 0.0;
     for (counts, rate) in route() {
         truth = reference::odometry_tick(truth, Some((counts, 0)), Some(rate), DT_US, 100.0);
-        let mut ranges_mm = [None; BEAMS];
-        for (r, beam) in ranges_mm.iter_mut().zip(fan_angles()) {
-            let d = reference::ray_to_walls(
-                truth.x_um / 1000.0,
-                truth.y_um / 1000.0,
-                truth.heading + beam,
-            );
-            *r = Some(d.round().min(u16::MAX as f64) as u16);
-        }
+        let ranges_mm = reference::mat_scan(&truth);
         let mut frame = SensorFrame::empty(DT_US);
         frame.flow = Some(FlowDelta {
             forward_counts: counts * 96 / 100,

@@ -3,7 +3,7 @@
 
 mod reference;
 
-use reference::{bits_to_rad, fan_angles, Geometry, RefPose};
+use reference::{bits_to_rad, Geometry, RefPose};
 use slam_core::{
     DepthScan, FixOutcome, FlowDelta, GyroRate, Occupancy, Pose, SensorFrame, Slam, SlamConfig,
     TagDetection,
@@ -67,15 +67,7 @@ fn drive(with_tags: bool) -> Run {
     let mut outcomes = Vec::new();
     for (counts, rate) in square_route() {
         truth = reference::odometry_tick(truth, Some((counts, 0)), Some(rate), DT_US, 100.0);
-        let mut ranges_mm = [None; 8];
-        for (r, beam) in ranges_mm.iter_mut().zip(fan_angles()) {
-            let d = reference::ray_to_walls(
-                truth.x_um / 1000.0,
-                truth.y_um / 1000.0,
-                truth.heading + beam,
-            );
-            *r = Some(d.round().min(u16::MAX as f64) as u16);
-        }
+        let ranges_mm = reference::mat_scan(&truth);
         let mut frame = SensorFrame::empty(DT_US);
         frame.flow = Some(FlowDelta {
             forward_counts: counts,

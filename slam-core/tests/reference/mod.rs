@@ -494,3 +494,14 @@ pub fn fan_angles() -> [f64; 8] {
     }
     out
 }
+
+/// The depth sensor's eight ranges from `pose` inside the mat, millimetres, rounded, with
+/// no noise and every beam returning.
+pub fn mat_scan(pose: &RefPose) -> [Option<u16>; 8] {
+    let mut ranges_mm = [None; 8];
+    for (r, beam) in ranges_mm.iter_mut().zip(fan_angles()) {
+        let d = ray_to_walls(pose.x_um / 1000.0, pose.y_um / 1000.0, pose.heading + beam);
+        *r = Some(d.round().min(u16::MAX as f64) as u16);
+    }
+    ranges_mm
+}
