@@ -13,15 +13,20 @@ fn runs(name: &str) -> Vec<Figures> {
     runs_with(name, |out| out.figures)
 }
 
-/// `keep` of each seed's run of the scenario `name`.
-fn runs_with<T>(name: &str, keep: impl Fn(host_sim::run::RunOutput) -> T) -> Vec<T> {
+/// The shipped scenario `name`.
+fn scenario(name: &str) -> Scenario {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("scenarios")
         .join(name);
-    let scenario = match Scenario::load(&path) {
+    match Scenario::load(&path) {
         Ok(s) => s,
         Err(e) => panic!("{name}: {e}"),
-    };
+    }
+}
+
+/// `keep` of each seed's run of the scenario `name`.
+fn runs_with<T>(name: &str, keep: impl Fn(host_sim::run::RunOutput) -> T) -> Vec<T> {
+    let scenario = scenario(name);
     SEEDS
         .map(|seed| match run(&scenario, PoseMode::Slam, seed) {
             Ok(out) => keep(out),
@@ -55,14 +60,6 @@ fn the_bound_holds_the_error_on_every_shipped_scenario() {
     }
 }
 
-/// Whether the scenario `name` has tags for the filter to correct from.
-fn has_tags(name: &str) -> bool {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenarios")
-        .join(name);
-    Scenario::load(&path).is_ok_and(|s| !s.world.tags.is_empty())
-}
-
 /// Every shipped scenario with tags: the bound is not lazily wide. Over every scored tick
 /// of the twenty seeds together, the median 3-sigma bound is at most 4 times the median
 /// true error (a consistent filter's is about 2.5 with a round position ellipse, 4.4 with a
@@ -70,7 +67,10 @@ fn has_tags(name: &str) -> bool {
 /// sensors' calibration prior carried forward, as wide as the robot's ignorance.
 #[test]
 fn the_bound_is_not_lazily_wide_on_every_shipped_scenario() {
-    for name in SHIPPED.into_iter().filter(|n| has_tags(n)) {
+    for name in SHIPPED
+        .into_iter()
+        .filter(|n| !scenario(n).world.tags.is_empty())
+    {
         let (mut bounds, mut errors): (Vec<f64>, Vec<f64>) = runs_with(name, |out| {
             scored_bounds(&out.record.ticks).collect::<Vec<_>>()
         })
