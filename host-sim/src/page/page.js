@@ -119,7 +119,11 @@ function drawOverlay(s) {
     g.strokeRect(x - 6, y - 6, 12, 12);
     g.fillStyle = COLOURS.tag;
     g.fillRect(x - 2, y - 2, 4, 4);
-    g.fillText(String(t.id), x + 9, y - 9);
+    const label = String(t.id);
+    g.fillStyle = "rgba(255, 255, 255, 0.85)";
+    g.fillRect(x + 7, y - 24, 6 + 9 * label.length, 16);
+    g.fillStyle = COLOURS.tag;
+    g.fillText(label, x + 10, y - 11);
   }
 }
 
