@@ -43,11 +43,11 @@ impl RecordedRun {
     pub fn final_tick(&self) -> u32 {
         self.messages
             .iter()
-            .filter_map(|m| match m {
+            .rev()
+            .find_map(|m| match m {
                 Message::Tick(t) => Some(t.tick),
                 _ => None,
             })
-            .last()
             .unwrap_or(0)
     }
 }
