@@ -17,14 +17,14 @@ pub fn install() -> Result<(), String> {
 }
 
 /// Installs Chromium if missing, then runs the ignored browser test; returns (passed,
-/// failed) as cargo counts them.
+/// failed) as cargo counts them. Built with `--workspace`, as the `cargo-tests` stage
+/// builds, so that the same features are unified and nothing is compiled again.
 pub fn run() -> Result<(u64, u64), String> {
     install()?;
     cargo_test(&[
         "test",
+        "--workspace",
         "--release",
-        "-p",
-        "host-sim",
         "--test",
         "page_browser",
         "--",
