@@ -24,7 +24,7 @@ mod path;
 mod state;
 
 pub use http::{Route, IO_TIMEOUT, MAX_REQUEST_BYTES};
-pub use layout::MapLayout;
+pub use layout::{MapLayout, MAP_LEFT_PX, MAP_MAX_PX, MAP_TOP_PX, MAX_CELL_PX};
 pub use path::{DecimatedPath, PathPoint, MAX_PATH_POINTS};
 pub use state::PageState;
 
@@ -174,6 +174,8 @@ impl PageServer {
     }
 }
 
+/// Stops the server: the connection in hand, if any, is finished first (a few seconds at
+/// most, see [`IO_TIMEOUT`]).
 impl Drop for PageServer {
     fn drop(&mut self) {
         self.stop.store(true, Ordering::Release);
