@@ -13,7 +13,7 @@ use slam_core::{Localiser, Occupancy};
 use wire::telemetry::{FilterState, Hello, MapRows, Message, SensorHealth, Tick};
 
 /// The character the page gets for a cell of each belief, row-major from the lowest
-/// row: one byte a cell keeps a 206 x 206 map at 42 KB a poll.
+/// row: one byte a cell, the smallest that JSON carries as it is.
 const UNKNOWN_CELL: char = '0';
 const FREE_CELL: char = '1';
 const OCCUPIED_CELL: char = '2';
