@@ -283,3 +283,30 @@ fn impossible_grids_and_rows_are_refused_and_counted() {
     assert_eq!(map.len(), 46 * 46);
     assert_eq!(&map[46..50], "1110");
 }
+
+#[test]
+fn the_error_is_given_only_when_the_truth_is_the_latest_ticks() {
+    use host_sim::truth::TruthSample;
+    let mut server = PageServer::bind(loopback()).expect("bind");
+    server.push(&Message::Hello(common::hello(46, 46)));
+    server.push(&tick(7)); // at 0.7 s, x 7 mm, y 500 mm
+    let error = |server: &PageServer| {
+        let s: Value = serde_json::from_str(&server.state_json()).expect("JSON");
+        s["figures"]["error_cm"].as_f64()
+    };
+    assert_eq!(error(&server), None, "no truth yet");
+    let at = |t_s, x_mm| TruthSample {
+        t_s,
+        x_mm,
+        y_mm: 500.0,
+        heading_deg: 0.0,
+    };
+    server.truth(&at(0.7, 37.0));
+    assert_eq!(error(&server), Some(3.0));
+    // A truth of another moment says nothing about this tick's error.
+    server.truth(&at(5.0, 7.0));
+    assert_eq!(error(&server), None);
+    let s: Value = serde_json::from_str(&server.state_json()).expect("JSON");
+    assert_eq!(s["truth"].as_array().map(Vec::len), Some(2));
+    assert_eq!(s["true_pose"]["x_mm"], 7.0);
+}
