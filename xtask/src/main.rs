@@ -8,6 +8,7 @@ use clap::{Parser, Subcommand};
 use emulate::EmulateArgs;
 use firmware::FirmwareArgs;
 
+mod browser;
 mod emulate;
 mod firmware;
 mod lint;
@@ -24,8 +25,9 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Task {
-    /// Every test the project has: host crates, the emulator's self-tests, the firmware
-    /// build and budget, and the firmware on the emulated RP2040.
+    /// Every test the project has: host crates, the live page in headless Chromium, the
+    /// emulator's self-tests, the firmware build and budget, and the firmware on the
+    /// emulated RP2040.
     Test,
     /// Formatting check, clippy on the host crates, and clippy on the firmware for its
     /// target (`-D warnings` both).
@@ -116,20 +118,21 @@ pub fn cargo() -> Command {
     Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
 }
 
-/// Every test the project has: the host crates, the emulator's own self-tests (its device
-/// models and harness), the firmware build with its flash and RAM budget check, and the
-/// firmware itself on the emulated RP2040. Ends with one line totalling the tests, so a
+/// Every test the project has: the host crates, the live page in headless Chromium, the
+/// emulator's own self-tests (its device models and harness), the firmware build with its
+/// flash and RAM budget check, and the firmware itself on the emulated RP2040. Ends with one line totalling the tests, so a
 /// reader (or CI) does not have to add up cargo's lines.
 fn test() -> Result<(), String> {
     let (cargo_passed, cargo_failed) = stage::timed("cargo-tests", || {
         cargo_test(&["test", "--workspace", "--release"])
     })?;
+    let (browser_passed, browser_failed) = stage::timed("browser", browser::run)?;
     let (self_passed, self_failed) = stage::timed("emulator-self-tests", emulate::self_tests::run)?;
     stage::timed("firmware-build", || firmware::run(&FirmwareArgs::default()))?;
     let (fault_passed, fault_failed) = stage::timed("emulator-faults", emulate::checks::fault_run)?;
     let (route_passed, route_failed) = stage::timed("emulator-route", emulate::checks::route_run)?;
-    let passed = cargo_passed + self_passed + fault_passed + route_passed;
-    let failed = cargo_failed + self_failed + fault_failed + route_failed;
+    let passed = cargo_passed + browser_passed + self_passed + fault_passed + route_passed;
+    let failed = cargo_failed + browser_failed + self_failed + fault_failed + route_failed;
     println!("tests: {passed} passed, {failed} failed");
     if failed > 0 {
         return Err(format!("{failed} tests failed"));

@@ -2,7 +2,8 @@
 //! that installs it (listed for people in `xtask/README.md`).
 //!
 //! The scripts run on their own when a command needs their tools (`cargo xtask firmware`
-//! runs the cross-toolchain and flip-link ones, `cargo xtask emulate` the Node.js one);
+//! runs the cross-toolchain and flip-link ones, `cargo xtask emulate` the Node.js one,
+//! `cargo xtask test` the browser one);
 //! `cargo xtask tools` checks them all at once and names the script for each one missing.
 
 use std::path::{Path, PathBuf};
@@ -49,6 +50,11 @@ pub const TOOLS: &[Tool] = &[
         "npm",
         "installs rp2040js from tests/emulator/package-lock.json (`npm ci`)",
         "scripts/install-node.sh",
+    ),
+    tool(
+        "chromium",
+        "headless browser for the live page's test (host-sim/tests/page_browser.rs)",
+        "scripts/install-browser.sh",
     ),
     tool(
         "flip-link",
@@ -179,6 +185,9 @@ mod tests {
         let hint = install_hint("/root/.cargo/bin/flip-link").unwrap();
         assert!(hint.contains("scripts/install-flip-link.sh"), "{hint}");
         assert!(install_hint("node").unwrap().contains("install-node.sh"));
+        assert!(install_hint("chromium")
+            .unwrap()
+            .contains("install-browser.sh"));
         assert_eq!(install_hint("no-such-program"), None);
     }
 
