@@ -201,8 +201,15 @@ fn the_mcap_holds_every_channel_and_ends_with_the_streams_map() {
         .chunks_exact(CELL_BYTES)
         .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
         .collect();
-    let want_p: Vec<f32> = s.cells.iter().map(|&c| probability(c)).collect();
-    assert_eq!(p, want_p);
+    // A cell byte is its log odds in sixteenths: its probability is the logistic of that.
+    for (i, (&p, &cell)) in p.iter().zip(&s.cells).enumerate() {
+        let want = 1.0 / (1.0 + (-f64::from(cell) / 16.0).exp());
+        assert!(
+            (f64::from(p) - want).abs() < 1e-6,
+            "cell {i}: {p} for byte {cell}"
+        );
+        assert_eq!(p, probability(cell));
+    }
     // ... and read back by the robot's thresholds it is the map `view` draws.
     let scale = s.hello.scale();
     let beliefs: Vec<CellBelief> = p
@@ -213,6 +220,27 @@ fn the_mcap_holds_every_channel_and_ends_with_the_streams_map() {
         })
         .collect();
     assert_eq!(beliefs, decode_bytes(&telemetry).recorder.beliefs());
+    // `view` of the same stream records the same final map.
+    let viewed = scratch("viewed.mcap");
+    let out = host_sim(&[
+        "view",
+        telemetry_path.to_str().unwrap_or_default(),
+        "--mcap",
+        viewed.to_str().unwrap_or_default(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let viewed = read(&viewed);
+    let viewed_grid = mcap::MessageStream::new(&viewed)
+        .expect("an MCAP file")
+        .filter_map(|m| m.ok().filter(|m| m.channel.topic == "/map"))
+        .last()
+        .map(|m| Grid::decode(m.data.as_ref()).expect("a foxglove.Grid"))
+        .expect("a grid");
+    assert_eq!(viewed_grid.data, grid.data);
     let occupied = beliefs
         .iter()
         .filter(|&&b| b == CellBelief::Occupied)
