@@ -6,6 +6,7 @@
 
 use clap::builder::{PossibleValuesParser, TypedValueParser};
 use clap::{Args, Parser, Subcommand, ValueHint};
+use host_sim::live::pace::SPEED_RANGE;
 use host_sim::run::PoseMode;
 use std::path::PathBuf;
 
@@ -20,9 +21,9 @@ const MAX_VIEW_SECONDS: f64 = 1e9;
 /// BugBot's simulated mat and robot: run a scenario, watch a robot's telemetry, replay
 /// its inputs, serve the emulator, or benchmark.
 ///
-/// Exit codes: 0 done, 1 the pictures or the stream could not be written, 2 bad
-/// arguments, scenario or stream, 3 a replay with the robot's settings that differs from
-/// the robot's run.
+/// Exit codes: 0 done, 1 the pictures, the stream or the MCAP file could not be written
+/// or a live server could not listen (its port in use), 2 bad arguments, scenario or
+/// stream, 3 a replay with the robot's settings that differs from the robot's run.
 #[derive(Debug, Parser)]
 #[command(name = "host-sim", version)]
 pub struct Cli {
@@ -76,6 +77,50 @@ pub struct RunArgs {
     /// Write the final map as a ROS map_server pair, DIR/map.pgm and DIR/map.yaml.
     #[arg(long, value_name = "DIR", value_hint = ValueHint::DirPath)]
     pub export_map: Option<PathBuf>,
+    /// Watching the run live, and recording it for Foxglove.
+    #[command(flatten)]
+    pub live: LiveArgs,
+}
+
+/// `--live` and `--mcap`, on `run` and `view`.
+#[derive(Debug, Args)]
+pub struct LiveArgs {
+    /// Play the run at real speed (a recorded file at the pace its ticks were recorded, a
+    /// serial port as it comes) and serve it to the Foxglove app on a WebSocket, and as a
+    /// page, on 127.0.0.1.
+    #[arg(long)]
+    pub live: bool,
+    /// The Foxglove WebSocket's port (0: any free port; the port is printed on stderr).
+    #[arg(long, value_name = "N", default_value_t = 8765, requires = "live")]
+    pub foxglove_port: u16,
+    /// The page's port, http://localhost:N/ (0: any free port).
+    #[arg(long, value_name = "N", default_value_t = 8080, requires = "live")]
+    pub port: u16,
+    /// Play this many times faster than real time, 0.1 to 1000 (a recorded file or a
+    /// simulated run; a serial port comes at its own pace).
+    #[arg(long, value_name = "X", default_value_t = 1.0, requires = "live",
+          allow_negative_numbers = true, value_parser = speed_factor)]
+    pub speed: f64,
+    /// Record the Foxglove channels into FILE (MCAP), to open in Foxglove later; without
+    /// --live the run is played as fast as it goes.
+    #[arg(long, value_name = "FILE", value_hint = ValueHint::FilePath)]
+    pub mcap: Option<PathBuf>,
+}
+
+impl LiveArgs {
+    /// Whether the run goes through a live session (served, recorded, or both).
+    pub fn wanted(&self) -> bool {
+        self.live || self.mcap.is_some()
+    }
+}
+
+/// `--speed`: a factor within [`SPEED_RANGE`].
+fn speed_factor(text: &str) -> Result<f64, String> {
+    let (low, high) = SPEED_RANGE;
+    match text.parse::<f64>() {
+        Ok(x) if x.is_finite() && (low..=high).contains(&x) => Ok(x),
+        _ => Err(format!("wants a factor from {low} to {high}")),
+    }
 }
 
 /// `host-sim view`.
@@ -107,6 +152,9 @@ pub struct ViewArgs {
     /// Write the final map as a ROS map_server pair, DIR/map.pgm and DIR/map.yaml.
     #[arg(long, value_name = "DIR", value_hint = ValueHint::DirPath)]
     pub export_map: Option<PathBuf>,
+    /// Watching the stream live, and recording it for Foxglove.
+    #[command(flatten)]
+    pub live: LiveArgs,
 }
 
 /// `host-sim replay`.

@@ -14,21 +14,30 @@
 //! `host_sim::replay`): with the robot's own settings it checks the replay against what the
 //! robot sent, bit for bit; with `--pose` it shows what another localiser would have done.
 //!
-//! Exit codes: 0 done, 1 the pictures or the stream could not be written, 2 bad
-//! arguments, scenario or stream, 3 a replay with the robot's settings that differs from
-//! the robot's run.
+//! `--live` (on `run` and `view`) plays the run at its pace and serves it to the Foxglove
+//! app on a WebSocket, `--mcap FILE` records the same channels (see `host_sim::live`).
+//!
+//! Exit codes: 0 done, 1 the pictures, the stream or the MCAP file could not be written
+//! or a live server could not listen (its port in use), 2 bad arguments, scenario or
+//! stream, 3 a replay with the robot's settings that differs from the robot's run.
 
 mod cli;
 
 use clap::Parser;
-use cli::{BenchArgs, Cli, Command, ReplayArgs, RunArgs, ServeArgs, ViewArgs};
-use host_sim::record::TrueCalibration;
+use cli::{BenchArgs, Cli, Command, LiveArgs, ReplayArgs, RunArgs, ServeArgs, ViewArgs};
+use host_sim::live::foxglove::{FoxgloveSink, Outputs};
+use host_sim::live::pace::Pace;
+use host_sim::live::scene::Stage;
+use host_sim::live::{Feed, LiveSink};
+use host_sim::page::PageServer;
+use host_sim::record::{TrueCalibration, WorldOutline};
 use host_sim::run::{run, run_with_telemetry, Figures, PoseMode};
 use host_sim::telemetry::estimator_line;
 use host_sim::telemetry::{Recording, TelemetryWriter};
 use host_sim::truth::{parse_truth, TruthSample};
 use host_sim::{bounded, picture, RunRecord, Scenario};
 use slam_core::SeedSlam;
+use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -79,15 +88,46 @@ fn load(path: &Path) -> Result<Scenario, Failure> {
 fn cmd_run(args: RunArgs) -> Result<(), Failure> {
     let scenario = load(&args.scenario)?;
     let seed = args.seed.unwrap_or(scenario.seed);
-    let mut writer = args
-        .telemetry
-        .as_ref()
-        .map(|_| TelemetryWriter::new(args.pose.localiser()));
+    // A live session plays the run's telemetry stream, so it needs one too.
+    let mut writer = (args.telemetry.is_some() || args.live.wanted())
+        .then(|| TelemetryWriter::new(args.pose.localiser()));
+    // The servers listen before the run, so a port in use is said at once.
+    let mut session = if args.live.wanted() {
+        let world = WorldOutline::of(&host_sim::world::World::new(&scenario));
+        Some(LiveSession::start(
+            &args.live,
+            Stage::of(&scenario),
+            Some(&world),
+        )?)
+    } else {
+        None
+    };
     let output = run_with_telemetry(&scenario, args.pose, seed, writer.as_mut())
         .map_err(|e| Failure(2, format!("{}: {e}", args.scenario.display())))?;
     if let (Some(path), Some(writer)) = (&args.telemetry, &writer) {
         std::fs::write(path, writer.bytes())
             .map_err(|e| Failure(1, format!("cannot write {}: {e}", path.display())))?;
+    }
+    if let (Some(session), Some(writer)) = (session.as_mut(), &writer) {
+        // The run's truth, as the emulator's harness would record it.
+        let truth: Vec<TruthSample> = output
+            .record
+            .ticks
+            .iter()
+            .map(|t| TruthSample {
+                t_s: t.t_s,
+                x_mm: t.truth_mm.0,
+                y_mm: t.truth_mm.1,
+                heading_deg: t.truth_heading_deg,
+            })
+            .collect();
+        let stop = stop_on_ctrl_c();
+        let pace = args.live.live.then(|| Pace::new(args.live.speed));
+        let mut recording = Recording::new();
+        let mut feed = session.feed(pace, Some(&truth));
+        // Reading from memory cannot fail.
+        let _ = host_sim::live::play(&mut recording, &mut writer.bytes(), &stop, None, &mut feed);
+        feed.finish().map_err(|e| Failure(1, e.to_string()))?;
     }
     if args.json {
         let json = serde_json::to_string(&output.figures).map_err(|e| Failure(1, e.to_string()))?;
@@ -148,31 +188,111 @@ fn is_serial_device(path: &Path) -> bool {
     name.starts_with("/dev/") || name.to_ascii_uppercase().starts_with("COM")
 }
 
+/// A live session's sinks: the Foxglove channels (served, recorded or both) and the page.
+struct LiveSession {
+    foxglove: FoxgloveSink,
+    /// The zero-install page, with `--live`.
+    page: Option<PageServer>,
+}
+
+impl LiveSession {
+    /// Starts what `live` asks for and says on stderr where it listens, a line per server
+    /// (`... on ws://127.0.0.1:PORT`, which tests parse for `--foxglove-port 0`). The
+    /// page draws `world`'s walls and tags when the world is known.
+    fn start(
+        live: &LiveArgs,
+        stage: Stage,
+        world: Option<&WorldOutline>,
+    ) -> Result<LiveSession, Failure> {
+        let outputs = Outputs {
+            websocket_port: live.live.then_some(live.foxglove_port),
+            mcap: live.mcap.clone(),
+        };
+        let foxglove = FoxgloveSink::new(stage, &outputs).map_err(|e| Failure(1, e.to_string()))?;
+        if let Some(port) = foxglove.websocket_port() {
+            eprintln!(
+                "host-sim: Foxglove WebSocket on ws://127.0.0.1:{port} (in the Foxglove app: Open connection, Foxglove WebSocket)"
+            );
+        }
+        let page = if live.live {
+            let mut page = PageServer::bind(SocketAddr::from(([127, 0, 0, 1], live.port)))
+                .map_err(|e| Failure(1, e.to_string()))?;
+            if let Some(world) = world {
+                page.world(world);
+            }
+            eprintln!("host-sim: live page on {}", page.url());
+            Some(page)
+        } else {
+            None
+        };
+        Ok(LiveSession { foxglove, page })
+    }
+
+    /// The feed that plays into every sink.
+    fn feed<'a>(&'a mut self, pace: Option<Pace>, truth: Option<&'a [TruthSample]>) -> Feed<'a> {
+        let mut sinks: Vec<&mut dyn LiveSink> = vec![&mut self.foxglove];
+        if let Some(page) = &mut self.page {
+            sinks.push(page);
+        }
+        Feed { sinks, pace, truth }
+    }
+}
+
+/// A flag that Ctrl-C sets: a live session or a serial port then stops, and the summary
+/// and pictures still come. If a handler cannot be set, Ctrl-C ends the process as usual.
+fn stop_on_ctrl_c() -> Arc<AtomicBool> {
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = Arc::clone(&stop);
+    let _ = ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed));
+    stop
+}
+
 /// Decodes a telemetry stream, prints what it held and draws its pictures.
 fn cmd_view(args: ViewArgs) -> Result<(), Failure> {
     let shown = args.source.display().to_string();
-    let stop = Arc::new(AtomicBool::new(false));
+    let serial = is_serial_device(&args.source);
+    let stop = if serial || args.live.live {
+        stop_on_ctrl_c()
+    } else {
+        Arc::new(AtomicBool::new(false))
+    };
     let deadline = args
         .seconds
         .map(|s| Instant::now() + Duration::from_secs_f64(s));
     let mut recording = Recording::new();
-    if let Some(path) = &args.truth {
-        recording.recorder = recording.recorder.with_truth(load_truth(path)?);
+    let truth = match &args.truth {
+        Some(path) => Some(load_truth(path)?),
+        None => None,
+    };
+    if let Some(truth) = &truth {
+        recording.recorder = recording.recorder.with_truth(truth.clone());
     }
+    let mut stage = Stage::firmware();
+    let mut outline = None;
     if let Some(path) = &args.scenario {
         let scenario = load(path)?;
         let world = host_sim::world::World::new(&scenario);
+        outline = Some(WorldOutline::of(&world));
         recording.recorder = recording
             .recorder
             .with_world(world)
             .with_true_calibration(TrueCalibration::of(&scenario));
+        stage = Stage::of(&scenario);
     }
-    let serial = is_serial_device(&args.source);
+    let mut session = if args.live.wanted() {
+        Some(LiveSession::start(&args.live, stage, outline.as_ref())?)
+    } else {
+        None
+    };
+    // A file plays at its recorded pace when watched; a port comes at its own.
+    let pace = (args.live.live && !serial).then(|| Pace::new(args.live.speed));
+    let mut feed = session.as_mut().map(|s| s.feed(pace, truth.as_deref()));
+    let mut read_from = |recording: &mut Recording, source: &mut dyn std::io::Read| match &mut feed
+    {
+        Some(feed) => host_sim::live::play(recording, source, &stop, deadline, feed),
+        None => recording.read_from(source, &stop, deadline),
+    };
     let read = if serial {
-        // Ctrl-C ends a live view; the pictures are still drawn. If a handler cannot be
-        // set, Ctrl-C simply ends the process as usual.
-        let flag = Arc::clone(&stop);
-        let _ = ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed));
         let mut port = serialport::new(shown.as_str(), args.baud)
             .timeout(Duration::from_millis(200))
             .open()
@@ -183,15 +303,18 @@ fn cmd_view(args: ViewArgs) -> Result<(), Failure> {
                 args.baud
             );
         }
-        recording.read_from(&mut port, &stop, deadline)
+        read_from(&mut recording, &mut port)
     } else {
         let mut file = std::fs::File::open(&args.source)
             .map_err(|e| Failure(2, format!("cannot read {shown}: {e}")))?;
-        recording.read_from(&mut file, &stop, deadline)
+        read_from(&mut recording, &mut file)
     };
     if let Err(e) = read {
         // What came before the error is kept: a robot unplugged mid-run still has a run.
         eprintln!("host-sim: reading {shown} stopped: {e}");
+    }
+    if let Some(feed) = &mut feed {
+        feed.finish().map_err(|e| Failure(1, e.to_string()))?;
     }
     let summary = recording.summary();
     if summary.frames_ok == 0 {

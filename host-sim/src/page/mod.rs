@@ -187,3 +187,14 @@ impl Drop for PageServer {
         }
     }
 }
+
+/// The page as one of a live session's sinks: every message and true pose, as they play.
+impl crate::live::LiveSink for PageServer {
+    fn message(&mut self, message: &Message) {
+        self.push(message);
+    }
+
+    fn truth(&mut self, sample: &TruthSample) {
+        PageServer::truth(self, sample);
+    }
+}
