@@ -26,6 +26,8 @@ fn a_port_in_use_is_named() {
         "run",
         &seed(),
         "--live",
+        "--port",
+        "0",
         "--speed",
         "1000",
         "--foxglove-port",
@@ -43,12 +45,36 @@ fn a_port_in_use_is_named() {
 }
 
 #[test]
+fn a_page_port_in_use_is_named() {
+    let taken = TcpListener::bind("127.0.0.1:0").expect("a port");
+    let port = taken.local_addr().expect("an address").port().to_string();
+    let out = host_sim(&[
+        "run",
+        &seed(),
+        "--live",
+        "--speed",
+        "1000",
+        "--foxglove-port",
+        "0",
+        "--port",
+        &port,
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains(&format!("127.0.0.1:{port}")), "{err}");
+    assert!(err.contains("in use"), "{err}");
+    assert!(out.stdout.is_empty(), "no run when the page cannot listen");
+}
+
+#[test]
 fn speeds_out_of_range_and_live_options_without_live_are_refused() {
     for speed in ["0", "0.05", "1001", "-2", "nan", "inf", "fast"] {
         let out = host_sim(&[
             "run",
             &seed(),
             "--live",
+            "--port",
+            "0",
             "--foxglove-port",
             "0",
             "--speed",
@@ -88,6 +114,8 @@ fn garbage_ends_the_session_cleanly() {
         "view",
         garbage.to_str().unwrap_or_default(),
         "--live",
+        "--port",
+        "0",
         "--foxglove-port",
         "0",
         "--speed",
@@ -127,6 +155,8 @@ fn a_stream_cut_short_plays_to_its_end_with_the_usual_summary() {
         "view",
         cut.to_str().unwrap_or_default(),
         "--live",
+        "--port",
+        "0",
         "--foxglove-port",
         "0",
         "--speed",

@@ -66,6 +66,8 @@ fn a_client_subscribes_to_the_map_and_receives_it() {
         "--pose",
         "slam",
         "--live",
+        "--port",
+        "0",
         "--speed",
         "10",
         "--foxglove-port",
