@@ -120,8 +120,8 @@ pub fn cargo() -> Command {
 
 /// Every test the project has: the host crates, the live page in headless Chromium, the
 /// emulator's own self-tests (its device models and harness), the firmware build with its
-/// flash and RAM budget check, and the firmware itself on the emulated RP2040. Ends with one line totalling the tests, so a
-/// reader (or CI) does not have to add up cargo's lines.
+/// flash and RAM budget check, and the firmware itself on the emulated RP2040. Ends with
+/// one line totalling the tests, so a reader (or CI) does not have to add up cargo's lines.
 fn test() -> Result<(), String> {
     let (cargo_passed, cargo_failed) = stage::timed("cargo-tests", || {
         cargo_test(&["test", "--workspace", "--release"])
