@@ -88,7 +88,7 @@ impl MatcherConfig {
         min_points: 12,
         scores: EndpointScores::SEED,
         halving: 4,
-        unpinned_pct: 40,
+        unpinned_pct: 20,
     };
 }
 
