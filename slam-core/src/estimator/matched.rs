@@ -8,7 +8,10 @@
 //! ones less what the earlier explain), and each pair of scalars is one two-row update of
 //! the covariance, gated at the tags' chi-square. The match's spread is widened by
 //! [`MatchNoise`] before: the map it matched against was built at poses no better than
-//! the filter's, and its errors repeat from one match to the next.
+//! the filter's, and its errors repeat from one match to the next. For the same reason
+//! each measurement's noise is raised so that it never leaves the filter surer along its
+//! direction than the map can be ([`MatchNoise`]'s floors plus [`MapUncertainty`]); where
+//! the filter already is (tags in view), the measurement is left out.
 
 use super::covariance::{GAIN_SHIFT, N};
 use super::filter::Estimator;
