@@ -83,9 +83,10 @@ fn matching_holds_a_drive_that_dead_reckoning_loses() {
     println!("largest error: filter without matching {dead:.1} mm, with it {matched:.1} mm; {c:?}");
     assert!(dead > 100.0, "{dead}");
     // Matches pull the pose no nearer the map than the map's own cells and drift allow
-    // (`MatchNoise`'s floors, `MapUncertainty`), so they halve the drift rather than
-    // cancel it; the map's walls lie on cell boundaries here.
-    assert!(matched < 70.0 && matched < dead * 0.6, "{matched}");
+    // (`MatchNoise`'s floors, `MapUncertainty`), and pin a position only where the score
+    // surface is narrow (`MatcherConfig::unpinned_pct`, strict so that a corridor claims
+    // nothing along it), so on this drive they take off a tenth of the drift's worst.
+    assert!(matched < dead * 0.9, "{matched}");
     assert!(c.used > 300, "{c:?}");
     // The map holds only the scans that have left the sweep.
     let ticks = route().len() as u32;
