@@ -237,7 +237,6 @@ fn the_tag_free_room() {
 /// least 98 % of all ticks (and issue 10's 90 % on each seed), where matching must not
 /// claim what the walls cannot say.
 #[test]
-#[ignore = "issue 11: not met yet (README: --pose slam on corridor)"]
 fn the_corridor_is_consistent() {
     let runs = runs("corridor.toml", PoseMode::Slam);
     let all = inside_all("corridor.toml", PoseMode::Slam, &runs, 90.0);
