@@ -58,8 +58,9 @@ pub struct RunArgs {
     #[arg(value_name = "SCENARIO", value_hint = ValueHint::FilePath)]
     pub scenario: PathBuf,
     /// Which pose the mapper uses: the simulator's truth, odometry alone, odometry
-    /// corrected by two-tag fixes (the seed's), the filter on every tag sighting (what the
-    /// firmware flies), or the filter on scan matching alone, no tags (in the works).
+    /// corrected by two-tag fixes (the seed's), the filter on every tag sighting (filter:
+    /// what the firmware flies), the filter on scan matching alone with no tags (match),
+    /// or the filter on tags and scan matching together (slam).
     #[arg(long, value_name = "MODE", default_value = "tags", value_parser = pose_mode())]
     pub pose: PoseMode,
     /// Seed of the noise (default: the scenario's `seed`).
@@ -205,19 +206,10 @@ pub struct BenchArgs {
     pub scenario: PathBuf,
 }
 
-/// `--pose`: the five names, listed in `--help` and in the error for any other.
+/// `--pose`: the six names, listed in `--help` and in the error for any other.
 fn pose_mode() -> impl TypedValueParser<Value = PoseMode> {
-    PossibleValuesParser::new(
-        [
-            PoseMode::Truth,
-            PoseMode::DeadReckoning,
-            PoseMode::Tags,
-            PoseMode::Slam,
-            PoseMode::Match,
-        ]
-        .map(PoseMode::name),
-    )
-    .try_map(|name| name.parse::<PoseMode>())
+    PossibleValuesParser::new(PoseMode::ALL.map(PoseMode::name))
+        .try_map(|name| name.parse::<PoseMode>())
 }
 
 /// `--seconds`: a finite, positive number of seconds below [`MAX_VIEW_SECONDS`].

@@ -21,7 +21,7 @@ use crate::run::{slam_config, to_core_pose, PoseMode, GRID_SIDES};
 use crate::scenario::Scenario;
 use crate::telemetry::TelemetryWriter;
 use serde::Serialize;
-use slam_core::{GridMap, Localiser, Slam};
+use slam_core::{GridMap, Slam};
 use std::fmt;
 use wire::telemetry::{
     CellScale, FilterState, Hello, Inputs, MapRows, Message, StreamDecoder, Tick,
@@ -220,18 +220,19 @@ pub fn replay(
             _ => None,
         })
         .ok_or(ReplayError::NoHello)?;
-    let localiser = match pose {
+    let own = PoseMode::of_localiser(hello.localiser);
+    let mode = match pose {
         Some(PoseMode::Truth) => return Err(ReplayError::Truth),
-        Some(mode) => mode.localiser(),
-        None => hello.localiser,
+        Some(mode) => mode,
+        None => own,
     };
     check_grid(scenario, &hello)?;
     let side = usize::from(hello.width);
     let run = Run {
         scenario,
         messages: &messages,
-        localiser,
-        robot_settings: localiser == hello.localiser,
+        mode,
+        robot_settings: mode == own,
         bad_frames: stats.bad_frames.total(),
     };
     if side == GRID_SIDES[0] {
@@ -265,7 +266,7 @@ fn check_grid(scenario: &Scenario, h: &Hello) -> Result<(), ReplayError> {
 struct Run<'a> {
     scenario: &'a Scenario,
     messages: &'a [Message],
-    localiser: Localiser,
+    mode: PoseMode,
     robot_settings: bool,
     bad_frames: u32,
 }
@@ -273,7 +274,7 @@ struct Run<'a> {
 impl Run<'_> {
     fn sized<const W: usize, const H: usize>(&self) -> Result<Replay, ReplayError> {
         let mut config = slam_config(self.scenario);
-        config.localiser = self.localiser;
+        self.mode.configure(&mut config);
         let s = &self.scenario.start;
         let start = to_core_pose(&TruePose {
             x_mm: s.x_mm,
@@ -282,10 +283,10 @@ impl Run<'_> {
         });
         let mut slam: Box<Slam<W, H>> =
             Box::new(Slam::new(config, start).map_err(|e| ReplayError::Config(format!("{e:?}")))?);
-        let mut writer = TelemetryWriter::new(self.localiser);
+        let mut writer = TelemetryWriter::new(self.mode.localiser());
         let mut check = self.robot_settings.then(BitForBit::default);
         let mut summary = ReplaySummary {
-            pose: pose_name(self.localiser).to_string(),
+            pose: self.mode.name().to_string(),
             robot_settings: self.robot_settings,
             steps: 0,
             skipped_out_of_order: 0,
@@ -389,15 +390,6 @@ impl Run<'_> {
             Tick::new(i.time_ms, &report),
             FilterState::new(&report, slam.tag_counters()),
         )
-    }
-}
-
-/// The name `--pose` gives the mode that flies `localiser`.
-fn pose_name(localiser: Localiser) -> &'static str {
-    match localiser {
-        Localiser::DeadReckoning => "dead-reckoning",
-        Localiser::TwoTagFix => "tags",
-        Localiser::Filter => "slam",
     }
 }
 

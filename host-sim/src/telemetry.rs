@@ -440,7 +440,7 @@ fn localiser_name(localiser: Localiser) -> &'static str {
     match localiser {
         Localiser::DeadReckoning => "dead-reckoning",
         Localiser::TwoTagFix => "tags",
-        Localiser::Filter => "slam",
+        Localiser::Filter => "filter",
     }
 }
 

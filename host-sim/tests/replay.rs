@@ -69,7 +69,7 @@ fn scratch(name: &str, bytes: &[u8]) -> PathBuf {
 #[test]
 fn a_simulated_run_replays_bit_for_bit() {
     let scenario = seed();
-    for mode in [PoseMode::Slam, PoseMode::Tags] {
+    for mode in [PoseMode::Filter, PoseMode::Tags] {
         let bytes = recorded(&scenario, mode);
         let r = match replay(&scenario, &bytes, None) {
             Ok(r) => r,
@@ -83,7 +83,7 @@ fn a_simulated_run_replays_bit_for_bit() {
         let n = ticks(&bytes).len() as u32;
         assert!(n > 400, "{n} ticks");
         assert_eq!((s.steps, b.ticks), (n, n), "{mode:?}");
-        let filters = if mode == PoseMode::Slam { n } else { 0 };
+        let filters = if mode == PoseMode::Filter { n } else { 0 };
         assert_eq!(b.filters, filters, "{mode:?}");
         assert!(b.map_chunks >= n, "{mode:?}: {} chunks", b.map_chunks);
         assert!(b.identical());
@@ -216,7 +216,7 @@ fn a_stream_too_long_to_hold_is_refused_without_reading_it_all() {
 #[test]
 fn a_stream_that_lies_is_reported_not_a_panic() {
     let scenario = seed();
-    let all = messages(&recorded(&scenario, PoseMode::Slam));
+    let all = messages(&recorded(&scenario, PoseMode::Filter));
     let is_inputs = |m: &Message, n: u32| matches!(m, Message::Inputs(i) if i.tick == n);
 
     // Tick 100's inputs lost: stepped on, the gap counted and named.

@@ -404,7 +404,7 @@ fn same_json(a: &serde_json::Value, b: &serde_json::Value) -> bool {
 
 #[test]
 fn the_filters_figures_survive_the_telemetry() {
-    // `run --pose slam` and `view --truth --scenario` of its stream give the same
+    // `run --pose filter` (the firmware's) and `view --truth --scenario` of its stream give the same
     // `estimator` object: covariance, calibration and tags travel whole.
     let dir = scratch("slam");
     let stream = dir.join("slam.bin");
@@ -412,14 +412,14 @@ fn the_filters_figures_survive_the_telemetry() {
         "run",
         path_str(&seed_path()),
         "--pose",
-        "slam",
+        "filter",
         "--telemetry",
         path_str(&stream),
         "--json",
     ]);
     assert_eq!(out.status.code(), Some(0));
     let sim: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_default();
-    let (_, truth, _) = seed_run_with_truth(&dir, PoseMode::Slam);
+    let (_, truth, _) = seed_run_with_truth(&dir, PoseMode::Filter);
     let v = view_json(&[
         "view",
         path_str(&stream),
@@ -431,10 +431,10 @@ fn the_filters_figures_survive_the_telemetry() {
         "--out",
         path_str(&dir),
     ]);
-    assert_eq!(v["localiser"], "slam", "{v}");
+    assert_eq!(v["localiser"], "filter", "{v}");
     assert_eq!(v["filters_unmatched"], 0, "{v}");
     let (e, s) = (&v["estimator"], &sim["estimator"]);
-    assert!(s.is_object(), "run --pose slam has an estimator: {sim}");
+    assert!(s.is_object(), "run --pose filter has an estimator: {sim}");
     // The same keys and values; errors scored from the truth file's text may differ in
     // the last digits.
     assert!(same_json(e, s), "view {e}\nrun {s}");

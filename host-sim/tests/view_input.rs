@@ -282,7 +282,7 @@ fn filter_beliefs_join_their_ticks_and_reach_the_summary() {
     assert_eq!(flows, [Some(40_001.0), Some(40_002.0), Some(40_003.0)]);
     let summary = recording.summary();
     assert_eq!(summary.filters_unmatched, 1);
-    assert_eq!(summary.localiser.as_deref(), Some("slam"));
+    assert_eq!(summary.localiser.as_deref(), Some("filter"));
     let e = summary.estimator.expect("estimator figures");
     assert!((e.bound_3sigma_cm - 0.6).abs() < 1e-9, "{e:?}");
     assert!((e.bound_3sigma_heading_deg - 1.5).abs() < 1e-3, "{e:?}");

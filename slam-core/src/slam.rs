@@ -2,7 +2,8 @@
 
 use crate::angle::Angle;
 use crate::estimator::{
-    Estimate, Estimator, EstimatorConfig, MatchCounters, MatchNoise, TagCounters, TagRefusal,
+    Estimate, Estimator, EstimatorConfig, MapUncertainty, MatchCounters, MatchNoise, TagCounters,
+    TagRefusal,
 };
 use crate::frame::{DepthScan, SensorFrame, BEAMS};
 use crate::grid::{Evidence, GridGeometry, GridMap};
@@ -263,6 +264,8 @@ pub struct Slam<const W: usize, const H: usize> {
     matcher: SeedMatcher,
     match_counters: MatchCounters,
     last_match: Option<Match>,
+    /// How far the map may be off, for the matches against it.
+    map_uncertainty: MapUncertainty,
 }
 
 impl<const W: usize, const H: usize> Slam<W, H> {
@@ -287,6 +290,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             .map_err(|_| ConfigError::Matching)?,
             match_counters: MatchCounters::default(),
             last_match: None,
+            map_uncertainty: MapUncertainty::default(),
         })
     }
 
@@ -302,6 +306,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         self.sweep.clear();
         self.match_counters = MatchCounters::default();
         self.last_match = None;
+        self.map_uncertainty = MapUncertainty::default();
     }
 
     /// Matches used and refused, by cause ([`SlamConfig::matching`]).
@@ -481,7 +486,10 @@ impl<const W: usize, const H: usize> Slam<W, H> {
     /// sweep is matched. Returns the cells written.
     fn sweep_scan(&mut self, scan: &DepthScan, then: &Pose) -> u32 {
         let written = match self.sweep.push(self.counters.ticks, *then, *scan) {
-            Some(left) => self.map_scan(&left.scan, &left.pose),
+            Some(left) => {
+                self.map_uncertainty.wrote(&self.estimator);
+                self.map_scan(&left.scan, &left.pose)
+            }
             None => 0,
         };
         let Some(matching) = self.config.matching else {
@@ -492,7 +500,9 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             .match_sweep(&self.sweep, &self.config.depth.beam_angles, &self.map)
             .and_then(|m| {
                 self.last_match = Some(m);
-                let corrected = self.estimator.apply_match(&m, &matching.noise)?;
+                let corrected =
+                    self.estimator
+                        .apply_match(&m, &matching.noise, &self.map_uncertainty)?;
                 Ok(RigidMotion::carrying(&m.prediction, &corrected))
             });
         if let Ok(motion) = &outcome {

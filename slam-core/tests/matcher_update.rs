@@ -2,8 +2,8 @@
 //! the pose only along what it pins, by how sure it is against the filter, and a match far
 //! from the prediction is refused by the gate.
 
-use slam_core::estimator::MatchNoise;
 use slam_core::estimator::State;
+use slam_core::estimator::{MapUncertainty, MatchNoise};
 use slam_core::matcher::{Match, MatchCovariance, MatchRefusal, MatchStats, Pins};
 use slam_core::{Angle, Estimator, EstimatorConfig, Pose};
 
@@ -47,6 +47,8 @@ const NOISE: MatchNoise = MatchNoise {
     position_um: 1_000,
     heading_mdeg: 100,
     scale_pct: 100,
+    floor_position_um: 0,
+    floor_heading_mdeg: 0,
 };
 
 #[test]
@@ -61,7 +63,9 @@ fn a_flat_wall_moves_the_pose_across_it_only() {
         (30_000, 2_000, 300),
         Pins::AllButAlong(-Angle::QUARTER_TURN),
     );
-    let corrected = filter.apply_match(&m, &NOISE).expect("within the gate");
+    let corrected = filter
+        .apply_match(&m, &NOISE, &MapUncertainty::default())
+        .expect("within the gate");
     let moved_x = corrected.x_um - m.prediction.x_um;
     let moved_y = corrected.y_um - m.prediction.y_um;
     let turned = (corrected.heading - m.prediction.heading).to_millidegrees();
@@ -78,7 +82,9 @@ fn a_flat_wall_moves_the_pose_across_it_only() {
 fn a_corner_moves_all_three_by_their_certainty() {
     let mut filter = unsure();
     let m = hand_made(10_000, -10_000, -400, (2_000, 2_000, 200), Pins::All);
-    let corrected = filter.apply_match(&m, &NOISE).expect("within the gate");
+    let corrected = filter
+        .apply_match(&m, &NOISE, &MapUncertainty::default())
+        .expect("within the gate");
     let moved_x = corrected.x_um - m.prediction.x_um;
     let moved_y = corrected.y_um - m.prediction.y_um;
     let turned = (corrected.heading - m.prediction.heading).to_millidegrees();
@@ -98,7 +104,10 @@ fn a_match_far_from_the_prediction_is_gated() {
     let before = *filter.covariance();
     // 15 cm off where the filter is sure to 1 cm and the match to 2 mm.
     let m = hand_made(150_000, 0, 0, (2_000, 2_000, 200), Pins::All);
-    assert_eq!(filter.apply_match(&m, &NOISE), Err(MatchRefusal::Gate));
+    assert_eq!(
+        filter.apply_match(&m, &NOISE, &MapUncertainty::default()),
+        Err(MatchRefusal::Gate)
+    );
     assert_eq!(filter.covariance(), &before);
 }
 
@@ -112,7 +121,9 @@ fn heading_only_leaves_the_position() {
         (40_000, 40_000, 200),
         Pins::HeadingOnly,
     );
-    let corrected = filter.apply_match(&m, &NOISE).expect("within the gate");
+    let corrected = filter
+        .apply_match(&m, &NOISE, &MapUncertainty::default())
+        .expect("within the gate");
     assert_eq!(
         (corrected.x_um, corrected.y_um),
         (m.prediction.x_um, m.prediction.y_um)

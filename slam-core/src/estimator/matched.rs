@@ -8,7 +8,10 @@
 //! ones less what the earlier explain), and each pair of scalars is one two-row update of
 //! the covariance, gated at the tags' chi-square. The match's spread is widened by
 //! [`MatchNoise`] before: the map it matched against was built at poses no better than
-//! the filter's, and its errors repeat from one match to the next.
+//! the filter's, and its errors repeat from one match to the next. For the same reason
+//! each measurement's noise is raised so that it never leaves the filter surer along its
+//! direction than the map can be ([`MatchNoise`]'s floors plus [`MapUncertainty`]); where
+//! the filter already is (tags in view), the measurement is left out.
 
 use super::covariance::{GAIN_SHIFT, N};
 use super::filter::Estimator;
@@ -29,15 +32,71 @@ pub struct MatchNoise {
     pub heading_mdeg: u32,
     /// The match's own standard deviations are multiplied by this, per cent.
     pub scale_pct: u32,
+    /// The least position standard deviation matches may leave the filter with along the
+    /// direction they measure, micrometres: the map places a wall only to within its cell,
+    /// and that error is the same in every match against it, so matches repeated a
+    /// hundred times know no more than one does. Where the filter is surer than this (tags
+    /// in view), a match adds nothing.
+    pub floor_position_um: u32,
+    /// The same for the heading, millidegrees.
+    pub floor_heading_mdeg: u32,
 }
 
 impl MatchNoise {
-    /// The seed's: a match's spread doubled, plus 3 mm and 0.3 degrees.
+    /// The seed's: a match's spread doubled, plus 3 mm and 0.3 degrees; floors of a
+    /// 5 cm cell's quantisation (`50 / sqrt(12)` mm) and 0.3 degrees.
     pub const SEED: MatchNoise = MatchNoise {
         position_um: 3_000,
         heading_mdeg: 300,
         scale_pct: 200,
+        floor_position_um: 14_434,
+        floor_heading_mdeg: 300,
     };
+
+    /// The floors as variances in the filter's units, by component, the map's own
+    /// uncertainty added.
+    fn floors(&self, map: &MapUncertainty) -> [i64; 3] {
+        let position = units::position_from_um(units::position_from_um(square(i64::from(
+            self.floor_position_um,
+        ))));
+        let heading = units::heading_from_mdeg(units::heading_from_mdeg(square(i64::from(
+            self.floor_heading_mdeg,
+        ))));
+        [
+            position.saturating_add(map.position),
+            position.saturating_add(map.position),
+            heading.saturating_add(map.heading),
+        ]
+    }
+}
+
+/// How far the map itself may be off: the filter's uncertainty at the poses its scans were
+/// written at, followed as a running mean over the last scans written (a time constant of
+/// `2^MEMORY_SHIFT` scans). A match places the robot against the map, so it can place it
+/// in the world no better than the map lies there: a map drawn while dead reckoning in the
+/// dark carries that drift, and matching against it must not make the filter sure of it.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MapUncertainty {
+    /// Position variance, the filter's units (the larger of x and y).
+    pub position: i64,
+    /// Heading variance, the filter's units.
+    pub heading: i64,
+}
+
+impl MapUncertainty {
+    /// Scans over which the running mean forgets, as a power of two.
+    pub const MEMORY_SHIFT: u32 = 6;
+
+    /// Follows one scan written into the map while the filter is as `estimator` says.
+    pub fn wrote(&mut self, estimator: &Estimator) {
+        let p = estimator.covariance();
+        let position = p.get(State::X, State::X).max(p.get(State::Y, State::Y));
+        let heading = p.get(State::Heading, State::Heading);
+        let follow = |m: &mut i64, v: i64| *m += (v - *m) >> Self::MEMORY_SHIFT;
+        follow(&mut self.position, position);
+        follow(&mut self.heading, heading);
+    }
 }
 
 /// Matches used and refused since start, by cause.
@@ -84,6 +143,8 @@ struct Scalar {
     h: [(State, i32); 3],
     nu: i64,
     r: i64,
+    /// The least variance the filter may be left with along `h` ([`MatchNoise`]'s floor).
+    floor: i64,
 }
 
 /// A component of the match: across its wider spread, along it, or the heading.
@@ -194,7 +255,7 @@ impl Components {
     /// The chosen components as independent scalar measurements (the match's covariance
     /// factored as `L D L^T`, each measurement less what the earlier ones explain), in
     /// `order`. `None` if a variance left is not positive.
-    fn whitened(&self, order: &[Component]) -> Option<([Scalar; 3], usize)> {
+    fn whitened(&self, order: &[Component], floors: &[i64; 3]) -> Option<([Scalar; 3], usize)> {
         let n = order.len().min(3);
         let idx = |k: usize| order.get(k).map_or(0, |&c| c as usize);
         let c = |i: usize, j: usize| self.c[idx(i)][idx(j)];
@@ -222,6 +283,7 @@ impl Components {
             h: [(State::X, 0), (State::Y, 0), (State::Heading, 0)],
             nu: 0,
             r: 1,
+            floor: 0,
         }; 3];
         let mut nus = [0i64; 3];
         let mut rows = [[0i64; 3]; 3];
@@ -253,10 +315,22 @@ impl Components {
                 h: [(State::X, e(0)), (State::Y, e(1)), (State::Heading, e(2))],
                 nu,
                 r: r.max(1),
+                floor: floors[idx(i)],
             };
         }
         Some((out, n))
     }
+}
+
+/// The noise to give `m` so that the filter's variance along it, `prior` before, is
+/// left at least `m.floor` after: `r` with `prior r / (prior + r) >= floor`. `None` when
+/// `prior` is already at or below the floor.
+fn floored_noise(prior: i64, m: &Scalar) -> Option<i64> {
+    if prior <= m.floor {
+        return None;
+    }
+    let least = i128::from(prior) * i128::from(m.floor) / i128::from(prior - m.floor);
+    Some(m.r.max(i64::try_from(least).unwrap_or(i64::MAX)))
 }
 
 impl Estimator {
@@ -267,6 +341,7 @@ impl Estimator {
         &mut self,
         matched: &Match,
         noise: &MatchNoise,
+        map: &MapUncertainty,
     ) -> Result<Pose, MatchRefusal> {
         use Component::{Across, Along, Heading};
         let then = matched.prediction;
@@ -280,7 +355,9 @@ impl Estimator {
             Pins::PositionOnly => &[Across, Along],
             Pins::HeadingOnly => &[Heading],
         };
-        let (scalars, n) = parts.whitened(order).ok_or(MatchRefusal::NothingPinned)?;
+        let (scalars, n) = parts
+            .whitened(order, &noise.floors(map))
+            .ok_or(MatchRefusal::NothingPinned)?;
         let scalars = scalars.get(..n).unwrap_or(&[]);
         // Each pair is gated given the ones before; one beyond the gate refuses the whole
         // match, so the pairs go into a copy first (a 6 x 6 matrix: a few hundred bytes).
@@ -315,24 +392,39 @@ impl Estimator {
         };
         let first = moved(&first);
         let a1 = self.p.times_unit_row(&first.h);
-        let s1 = dot(&first.h, &a1).saturating_add(first.r);
+        let prior1 = dot(&first.h, &a1);
+        let Some(r1) = floored_noise(prior1, &first) else {
+            // The filter knows this direction better than the map can: only the second.
+            return match second {
+                Some(m) => self.update_pair(m, None, fine),
+                None => Ok(()),
+            };
+        };
+        let s1 = prior1.saturating_add(r1);
         let inv1 = Reciprocal::of(s1).ok_or(MatchRefusal::Gate)?;
         let mut chi2 = normalised_square_q8(first.nu, &inv1);
         let (a2, inv2, nu2) = match second.map(|m| moved(&m)) {
             Some(m) => {
                 let a = self.p.times_unit_row(&m.h);
                 let s_cross = dot(&first.h, &a);
-                let s2 = dot(&m.h, &a).saturating_add(m.r);
                 let k = inv1.times(s_cross, 16);
                 let nu = m.nu.saturating_sub(mul_shift(k, first.nu, 16));
-                let s2 = s2.saturating_sub(mul_shift(k, s_cross, 16));
-                let mut given = a;
-                for (g, r) in given.iter_mut().zip(a1) {
-                    *g = g.saturating_sub(mul_shift(k, r, 16));
+                // The second's variance given the first, before its own noise.
+                let prior2 = dot(&m.h, &a).saturating_sub(mul_shift(k, s_cross, 16));
+                match floored_noise(prior2, &m) {
+                    Some(r2) => {
+                        let mut given = a;
+                        for (g, r) in given.iter_mut().zip(a1) {
+                            *g = g.saturating_sub(mul_shift(k, r, 16));
+                        }
+                        let s2 = prior2.saturating_add(r2);
+                        let inv = Reciprocal::of(s2).ok_or(MatchRefusal::Gate)?;
+                        chi2 = chi2.saturating_add(normalised_square_q8(nu, &inv));
+                        (given, inv, nu)
+                    }
+                    // Nothing to learn along it: the first alone.
+                    None => ([0; N], inv1, 0),
                 }
-                let inv = Reciprocal::of(s2).ok_or(MatchRefusal::Gate)?;
-                chi2 = chi2.saturating_add(normalised_square_q8(nu, &inv));
-                (given, inv, nu)
             }
             None => ([0; N], inv1, 0),
         };

@@ -31,7 +31,7 @@ pub mod units;
 
 pub use config::EstimatorConfig;
 pub use filter::Estimator;
-pub use matched::{MatchCounters, MatchNoise};
+pub use matched::{MapUncertainty, MatchCounters, MatchNoise};
 
 /// The filter's states, in the covariance's order.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]

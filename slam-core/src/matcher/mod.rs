@@ -74,9 +74,12 @@ pub struct MatcherConfig {
     /// The score drop that halves a candidate's weight in the surface: the larger, the
     /// wider (more cautious) the covariance.
     pub halving: i32,
-    /// A direction whose spread reaches this share of the whole window's, in per cent, is
-    /// not pinned.
+    /// A position direction whose spread reaches this share of the whole window's, in per
+    /// cent, is not pinned.
     pub unpinned_pct: u8,
+    /// The same for the heading: looser than for the position, since a turned sweep
+    /// misfits every wall at once, where a slide along a wall misfits none.
+    pub unpinned_heading_pct: u8,
 }
 
 impl MatcherConfig {
@@ -88,7 +91,8 @@ impl MatcherConfig {
         min_points: 12,
         scores: EndpointScores::SEED,
         halving: 4,
-        unpinned_pct: 40,
+        unpinned_pct: 20,
+        unpinned_heading_pct: 40,
     };
 }
 
@@ -329,8 +333,9 @@ impl<const SIDE: usize, const TURNS: usize> Matcher<SIDE, TURNS> {
             return Err(MatchRefusal::NothingPinned);
         }
         let share = i64::from(self.config.unpinned_pct);
+        let heading_share = i64::from(self.config.unpinned_heading_pct);
         let position_limit = surface::uniform_q16((SIDE / 2) as i64) * share / 100;
-        let heading_limit = surface::uniform_q16((TURNS / 2) as i64) * share / 100;
+        let heading_limit = surface::uniform_q16((TURNS / 2) as i64) * heading_share / 100;
         let spread = surface::spread(c);
         let heading = c[2][2] < heading_limit;
         let (wide, along) = spread.wide;

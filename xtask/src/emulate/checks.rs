@@ -205,7 +205,7 @@ fn agrees(emulated: f64, simulated: f64, tolerance: Tolerance) -> bool {
 /// firmware's run is scored by `host-sim view --truth --scenario` with the code that scores
 /// `host-sim run`, and held to the seed's bounds and to `host-sim run
 /// host-sim/scenarios/seed-mat.toml` on the same seed with the pose mode the firmware flies
-/// (its `Hello` says: `--pose slam` for the filter, `--pose tags` for the two-tag fix).
+/// (its `Hello` says: `--pose filter` for the filter, `--pose tags` for the two-tag fix).
 /// Prints each check; returns (passed, failed).
 ///
 /// The two runs do not drive quite the same path: the simulator turns until the true
@@ -238,8 +238,8 @@ pub const EMULATED_INSIDE_PCT: f64 = 85.0;
 
 pub fn route_run() -> Result<(u64, u64), String> {
     let f = crate::emulator_figures(&["--seconds", ROUTE_SECONDS, "--seed", ROUTE_SEED])?;
-    let filter = f["view"]["localiser"].as_str() == Some("slam");
-    let pose = if filter { "slam" } else { "tags" };
+    let filter = f["view"]["localiser"].as_str() == Some("filter");
+    let pose = if filter { "filter" } else { "tags" };
     let scenario = workspace_root().join("host-sim/scenarios/seed-mat.toml");
     let mut run = Command::new(host_sim_binary());
     run.arg("run")
