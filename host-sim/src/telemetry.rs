@@ -435,8 +435,9 @@ impl TelemetryRecorder {
     }
 }
 
-/// The name `--pose` gives the mode that flies `localiser`.
-fn localiser_name(localiser: Localiser) -> &'static str {
+/// The name `--pose` gives the mode that flies `localiser` (a stream's `Hello` cannot
+/// tell whether the core also matched scans, so the filter is `filter`).
+pub fn localiser_name(localiser: Localiser) -> &'static str {
     match localiser {
         Localiser::DeadReckoning => "dead-reckoning",
         Localiser::TwoTagFix => "tags",

@@ -6,10 +6,10 @@
 use super::layout::MapLayout;
 use super::path::{DecimatedPath, PathPoint};
 use crate::record::{Belief, PointMm, WorldOutline};
-use crate::telemetry::MAX_GRID_SIDE;
+use crate::telemetry::{localiser_name, MAX_GRID_SIDE};
 use crate::truth::TruthSample;
 use serde::Serialize;
-use slam_core::{Localiser, Occupancy};
+use slam_core::Occupancy;
 use wire::telemetry::{FilterState, Hello, MapRows, Message, SensorHealth, Tick};
 
 /// The character the page gets for a cell of each belief, row-major from the lowest
@@ -246,15 +246,6 @@ impl PageState {
                 .collect(),
             figures,
         }
-    }
-}
-
-/// The name `--pose` gives the mode that flies `localiser`.
-fn localiser_name(localiser: Localiser) -> &'static str {
-    match localiser {
-        Localiser::DeadReckoning => "dead-reckoning",
-        Localiser::TwoTagFix => "tags",
-        Localiser::Filter => "slam",
     }
 }
 
