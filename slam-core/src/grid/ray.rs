@@ -93,7 +93,7 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
     /// difference rule; `advance` also counts boundaries per axis only to end a segment
     /// that stops exactly on a cell corner in its own cell. Such a walk, a spared cell
     /// anywhere but the end (a beam's hit cell is further along the same ray, so it is on
-    /// the walk only as its end cell), or evidence that adds where beams pass, is left to
+    /// the walk only as its end cell), or evidence other than the seed's, is left to
     /// `mark_free`.
     #[inline(always)]
     fn free_ray(
@@ -111,7 +111,11 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
         let spared_on_the_way = !spare_end
             && spared.is_some_and(|(c, r)| between(c, o.column, column) && between(r, o.row, row));
         let on_corner = column * cell == end.0 && row * cell == end.1;
-        if on_corner || spared_on_the_way || self.evidence.miss > 0 {
+        // Other evidence than the seed's takes the general walk: a copy of the loops for
+        // it would be flash the robot (which maps with the seed's) never runs.
+        let seed = (self.evidence.miss, self.evidence.clamp)
+            == (Evidence::SEED.miss, Evidence::SEED.clamp);
+        if on_corner || spared_on_the_way || !seed {
             return None;
         }
         let (columns, rows) = (column.abs_diff(o.column), row.abs_diff(o.row));
@@ -125,7 +129,7 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
             },
             (0, _) => Steps {
                 diff: 0,
-                delta_column: 0,
+                delta_column: 1,
                 delta_row: 0,
             },
             _ => Steps {
@@ -138,16 +142,7 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
         let at = o.row as usize * W + o.column as usize;
         let count = 1 + columns + rows - u32::from(spare_end);
         let direction = (dx > 0, dy > 0);
-        let (miss, floor) = (self.evidence.miss, -self.evidence.clamp);
-        if (miss, floor) == (Evidence::SEED.miss, -Evidence::SEED.clamp) {
-            self.free_walk_in_direction(direction, at, steps, count, SeedMiss);
-        } else {
-            let miss = AnyMiss {
-                miss: i32::from(miss),
-                floor: i32::from(floor),
-            };
-            self.free_walk_in_direction(direction, at, steps, count, miss);
-        }
+        self.free_walk_in_direction(direction, at, steps, count, SeedMiss);
         Some(count)
     }
 
@@ -170,37 +165,54 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
     }
 
     /// Frees `count` cells from flat index `at`, stepping right (`RIGHT`) or left and up
-    /// (`UP`) or down as `steps` decides. Never inlined: alone, its state nearly fits the
-    /// M0+'s registers. Each step is looked up by the difference's sign bit, which the M0+
-    /// does in fewer cycles than the compare-and-select the compiler makes of an `if`.
+    /// (`UP`) or down as `steps` decides. Never inlined: alone, its state fits the M0+'s
+    /// registers.
+    ///
+    /// Each cell is written once whatever the order, so the walk goes by runs along its
+    /// longer axis: the cells between two steps across it, counted by the difference rule
+    /// alone (two register additions a cell), then written from a slice, whose iterator
+    /// checks its bounds once a run instead of once a cell.
     #[inline(never)]
     fn free_walk<const RIGHT: bool, const UP: bool, M: Miss>(
         &mut self,
-        mut at: usize,
+        at: usize,
         steps: Steps,
         count: u32,
         miss: M,
     ) {
-        let column_step: isize = if RIGHT { 1 } else { -1 };
-        let row_step: isize = if UP { W as isize } else { -(W as isize) };
-        let cells = self.cells.as_flattened_mut();
         let Steps {
-            mut diff,
+            diff,
             delta_column,
             delta_row,
         } = steps;
-        let by_sign = [
-            (delta_row.wrapping_neg(), row_step),
-            (delta_column, column_step),
-        ];
-        for _ in 0..count {
-            if let Some(cell) = cells.get_mut(at) {
-                *cell = miss.apply(*cell);
-            }
-            // One step past the last cell is computed and never used.
-            let (d, step) = by_sign[(diff as u32 >> 31) as usize];
-            diff = diff.wrapping_add(d);
-            at = at.wrapping_add_signed(step);
+        let cells = self.cells.as_flattened_mut();
+        if delta_column <= delta_row {
+            // Along the columns: a column step while the difference is negative. Runs are
+            // contiguous in memory.
+            let row_step: isize = if UP { W as isize } else { -(W as isize) };
+            free_runs::<RIGHT, M>(
+                cells,
+                at,
+                row_step,
+                diff,
+                delta_column,
+                delta_row,
+                count,
+                miss,
+            );
+        } else {
+            // Along the rows: the same rule for `-1 - diff`, which is negative exactly when
+            // `diff` is not, with the roles of the deltas swapped.
+            free_columns::<UP, W, M>(
+                cells,
+                at,
+                RIGHT,
+                -1 - diff,
+                delta_row,
+                delta_column,
+                count,
+                miss,
+            );
         }
     }
 
@@ -336,6 +348,80 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
     }
 }
 
+/// [`GridMap::free_walk`] along the columns: from flat index `at`, `count` cells; a
+/// column step (towards `RIGHT`) while `diff` is negative, adding `along`, else a row step
+/// of `across_step`, taking `across`.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn free_runs<const RIGHT: bool, M: Miss>(
+    cells: &mut [LogOdds],
+    mut at: usize,
+    across_step: isize,
+    mut diff: i32,
+    along: i32,
+    across: i32,
+    count: u32,
+    miss: M,
+) {
+    let mut left = count as usize;
+    while left > 0 {
+        // This run: its first cell and the column steps before the next row step.
+        let mut run = 1usize;
+        while diff < 0 && run < left {
+            diff = diff.wrapping_add(along);
+            run += 1;
+        }
+        let (first, last) = if RIGHT {
+            (at, at.wrapping_add(run - 1))
+        } else {
+            (at.wrapping_sub(run - 1), at)
+        };
+        if let Some(slice) = cells.get_mut(first..=last) {
+            for cell in slice {
+                *cell = miss.apply(*cell);
+            }
+        }
+        left -= run;
+        let end = if RIGHT { last } else { first };
+        at = end.wrapping_add_signed(across_step);
+        diff = diff.wrapping_sub(across);
+    }
+}
+
+/// [`GridMap::free_walk`] along the rows: as [`free_runs`] with rows for columns, but cell
+/// by cell (a run down a column is not contiguous): a row step (`UP` or down) while `diff`
+/// is negative, adding `along`, else a column step (`right` or left), taking `across`.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn free_columns<const UP: bool, const W: usize, M: Miss>(
+    cells: &mut [LogOdds],
+    mut at: usize,
+    right: bool,
+    mut diff: i32,
+    along: i32,
+    across: i32,
+    count: u32,
+    miss: M,
+) {
+    let along_step: isize = if UP { W as isize } else { -(W as isize) };
+    let across_step: isize = if right { 1 } else { -1 };
+    let mut left = count;
+    while left > 0 {
+        if let Some(cell) = cells.get_mut(at) {
+            *cell = miss.apply(*cell);
+        }
+        left -= 1;
+        // One step past the last cell is computed and never used.
+        if diff < 0 {
+            diff = diff.wrapping_add(along);
+            at = at.wrapping_add_signed(along_step);
+        } else {
+            diff = diff.wrapping_sub(across);
+            at = at.wrapping_add_signed(across_step);
+        }
+    }
+}
+
 /// Where a scan's beams start, worked out once for all of them: the sensor's cell and its
 /// distances to that cell's sides.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -380,20 +466,6 @@ impl Miss for SeedMiss {
         const MISS: i32 = Evidence::SEED.miss as i32;
         const FLOOR: i32 = -(Evidence::SEED.clamp as i32);
         (i32::from(cell) + MISS).max(FLOOR) as LogOdds
-    }
-}
-
-/// Any other evidence with a negative miss.
-#[derive(Clone, Copy)]
-struct AnyMiss {
-    miss: i32,
-    floor: i32,
-}
-
-impl Miss for AnyMiss {
-    #[inline(always)]
-    fn apply(self, cell: LogOdds) -> LogOdds {
-        (i32::from(cell) + self.miss).max(self.floor) as LogOdds
     }
 }
 
