@@ -148,12 +148,11 @@ impl Estimator {
         let sigma_bearing = units::heading_from_mdeg(i64::from(cfg.bearing_noise_mdeg));
         let r_bearing = square(mul_shift(sigma_bearing, cos2, 16)).max(1);
 
-        let a_range = self.p.times_unit_row(&h_range);
-        let across = self.p.times_unit_row(&h_across);
+        let [a_range, across] = self.p.times_sight_rows(sin, cos);
         let heading = self.p.column(State::Heading);
-        let mut a_bearing = [0i64; N];
-        for ((a, u), h) in a_bearing.iter_mut().zip(across).zip(heading) {
-            *a = per_range.times(u, 12) - h;
+        let mut a_bearing = per_range.times_each(&across, 12);
+        for (a, h) in a_bearing.iter_mut().zip(heading) {
+            *a -= h;
         }
         let s_range = range_of(&a_range).saturating_add(r_range);
         let s_cross = range_of(&a_bearing);
