@@ -215,17 +215,19 @@ fn normalise(s: u64) -> (u32, i32) {
 impl Reciprocal {
     /// The reciprocal of `s`; `None` unless `s > 0`.
     ///
-    /// Newton-Raphson from a linear first guess, three steps of two 32-bit multiplies
-    /// each: no division (a 64-bit one is a long library loop on the M0+).
+    /// A 32-bit division for the first 15 bits, then two Newton-Raphson steps of two
+    /// 32-bit multiplies each: the RP2040 divides 32 bits in hardware (a 64-bit division
+    /// is a long library loop on the M0+).
     pub fn of(s: i64) -> Option<Reciprocal> {
         if s <= 0 {
             return None;
         }
         let (m, e) = normalise(s as u64); // s = m 2^e, m in [2^30, 2^31)
-                                          // With d = m / 2^31 in [0.5, 1), 1 / d is x / 2^30. First guess
-                                          // 48/17 - 32/17 d, within 1/17; each step squares the error.
-        let mut x = 3_031_741_621u32 - (wide_mul_unsigned(m, 4_042_322_161) >> 32) as u32;
-        for _ in 0..3 {
+                                          // With d = m / 2^31 in [0.5, 1), 1 / d is x / 2^30. First guess 2^32 / (m / 2^15)
+                                          // in Q16, within 2^-15 of it (the divisor cut to 16 bits); each step squares
+                                          // the error.
+        let mut x = (u32::MAX / (m >> 15)) << 14;
+        for _ in 0..2 {
             // e = 1 - d x, in Q32 (the product d x is Q61: m is Q31, x is Q30).
             let error = ((1u64 << 61) as i64 - wide_mul_unsigned(m, x) as i64) >> 29;
             let step = wide_mul_unsigned(x, error.unsigned_abs() as u32) >> 32;
