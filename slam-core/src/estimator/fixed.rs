@@ -369,7 +369,7 @@ mod tests {
             let m = if n % 13 == 0 {
                 1 << 31
             } else {
-                (next() >> 33) as u32 >> (r >> 8) % 32
+                (next() >> 33) as u32 >> ((r >> 8) % 32)
             };
             let shift = 1 + (r >> 16) as u32 % 61;
             let negative = r & 1 == 1;
