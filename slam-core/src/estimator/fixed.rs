@@ -234,21 +234,46 @@ fn normalise(s: u64) -> (u32, i32) {
     (m, e as i32)
 }
 
+/// `2^30 / d` for `d = 1/2 + i / 128`, `i` from 0 to 64: [`Reciprocal::of`]'s first
+/// guesses, worked out at compile time.
+static RECIPROCAL_TABLE: [u32; 65] = {
+    let mut table = [0u32; 65];
+    let mut i = 0;
+    while i < 65 {
+        // 2^30 / (1/2 + i/128) = 2^37 / (64 + i).
+        table[i] = ((1u64 << 37) / (64 + i as u64)) as u32;
+        i += 1;
+    }
+    table
+};
+
+/// `2^61 / m` for `m` in `[2^30, 2^31)`, within `2^-13` of it: [`RECIPROCAL_TABLE`]
+/// between its points, 2^24 of `m` apart.
+fn reciprocal_guess(m: u32) -> u32 {
+    let index = ((m >> 24) - 64) as usize;
+    let frac = (m >> 8) & 0xFFFF;
+    let at = |i: usize| RECIPROCAL_TABLE.get(i).copied().unwrap_or(1 << 30);
+    let (lo, hi) = (at(index), at(index + 1));
+    // Neighbours differ by under 2^25: cut to 15 bits, times a 16-bit fraction, that
+    // fits 31 bits.
+    lo - ((((lo - hi) >> 10) * frac) >> 6)
+}
+
 impl Reciprocal {
     /// The reciprocal of `s`; `None` unless `s > 0`.
     ///
-    /// A 32-bit division for the first 15 bits, then two Newton-Raphson steps of two
-    /// 32-bit multiplies each: the RP2040 divides 32 bits in hardware (a 64-bit division
-    /// is a long library loop on the M0+).
+    /// A table for the first 15 bits, then two Newton-Raphson steps of two 32-bit
+    /// multiplies each: no division (the M0+ has none, and a 64-bit one is a long library
+    /// loop).
     pub fn of(s: i64) -> Option<Reciprocal> {
         if s <= 0 {
             return None;
         }
         let (m, e) = normalise(s as u64); // s = m 2^e, m in [2^30, 2^31)
-                                          // With d = m / 2^31 in [0.5, 1), 1 / d is x / 2^30. First guess 2^32 / (m / 2^15)
-                                          // in Q16, within 2^-15 of it (the divisor cut to 16 bits); each step squares
-                                          // the error.
-        let mut x = (u32::MAX / (m >> 15)) << 14;
+                                          // With d = m / 2^31 in [0.5, 1), 1 / d is x / 2^30. First guess from the table
+                                          // of 1 / d, linear between its 65 points (within 2^-13); each step squares the
+                                          // error.
+        let mut x = reciprocal_guess(m);
         for _ in 0..2 {
             // e = 1 - d x, in Q32 (the product d x is Q61: m is Q31, x is Q30).
             let error = ((1u64 << 61) as i64 - wide_mul_unsigned(m, x) as i64) >> 29;
