@@ -98,7 +98,10 @@ pub fn mul_shift_each<const L: usize>(k: &[i64; L], x: i64, shift: u32) -> [i64;
 
 /// `v[i] * m / 2^shift` rounded half up, with `m` negated when `negative`, for
 /// `1 <= shift < 62`; `other` for an entry past 32 bits. The same bits as
-/// `round_shift(wide_mul(v, m), shift)` on each, by [`round_mul`].
+/// `round_shift(wide_mul(v, m), shift)` on each: the rounding bias and which half the
+/// quotient comes from are worked out once for the vector, and each entry is then one
+/// unsigned 32 x 32 product, a 64-bit add and a shift in 32-bit halves (the M0+ has no
+/// 64-bit shifter, and the library's shifts are calls).
 #[inline(always)]
 fn round_mul_each<const L: usize>(
     v: &[i64; L],
@@ -107,53 +110,28 @@ fn round_mul_each<const L: usize>(
     shift: u32,
     other: impl Fn(i64) -> i64,
 ) -> [i64; L] {
-    v.map(|v| {
-        if fits_i32(v) {
-            round_mul(v as i32, m, negative, shift)
-        } else {
-            other(v)
-        }
-    })
-}
-
-/// `v * m / 2^shift` rounded half up, `m` negated when `negative`, for
-/// `1 <= shift < 62`: the same bits as `round_shift(wide_mul(v, m), shift)`.
-///
-/// A leaf of its own, never inlined: its four arguments come in registers and its
-/// working values fit the M0+'s eight low ones, where inside a loop over a vector they
-/// went through the stack. One unsigned 32 x 32 product, the rounding bias added and the
-/// shift taken in 32-bit halves (the M0+ has no 64-bit shifter; the library's are calls).
-#[inline(never)]
-pub fn round_mul(v: i32, m: u32, negative: bool, shift: u32) -> i64 {
-    let below = (v < 0) != negative;
-    let p = wide_mul_unsigned(v.unsigned_abs(), m);
-    let (hi, lo) = ((p >> 32) as u32, p as u32);
     // Half a unit of the quotient rounds a positive product half up; a negative one,
     // -x / 2^s rounded half up, is -((x + half - 1) >> s).
-    let q = if shift <= 32 {
-        let half = 1u32 << (shift - 1);
-        let (lo, carry) = lo.overflowing_add(if below { half - 1 } else { half });
-        let hi = hi + u32::from(carry);
-        if shift == 32 {
-            u64::from(hi)
-        } else {
-            (u64::from(hi >> shift) << 32) | u64::from((lo >> shift) | (hi << (32 - shift)))
+    let half = 1u64 << (shift - 1);
+    v.map(|v| {
+        if !fits_i32(v) {
+            return other(v);
         }
-    } else {
-        // The bias's low half is zero, or all ones less the carry a nonzero `lo` makes.
-        let half = 1u32 << (shift - 33);
-        let hi = if below {
-            hi + (half - 1) + u32::from(lo != 0)
+        let below = (v < 0) != negative;
+        let p =
+            wide_mul_unsigned((v as i32).unsigned_abs(), m) + if below { half - 1 } else { half };
+        let (hi, lo) = ((p >> 32) as u32, p as u32);
+        let q = if shift < 32 {
+            (u64::from(hi >> shift) << 32) | u64::from((lo >> shift) | (hi << (32 - shift)))
         } else {
-            hi + half
-        };
-        u64::from(hi >> (shift - 32))
-    } as i64;
-    if below {
-        -q
-    } else {
-        q
-    }
+            u64::from(hi >> (shift - 32))
+        } as i64;
+        if below {
+            -q
+        } else {
+            q
+        }
+    })
 }
 
 #[cold]
@@ -296,7 +274,7 @@ impl Reciprocal {
         let shift = self.shift - extra as i32;
         if fits_i32(x) && (1..62).contains(&shift) {
             // |x inv| < 2^62.
-            round_mul(x as i32, self.inv as u32, false, shift as u32)
+            round_shift(wide_mul(x as i32, self.inv), shift as u32)
         } else {
             self.times_wide(x, shift)
         }
@@ -373,42 +351,6 @@ mod tests {
             let shift = (r >> 32) as u32 % 20 + 1;
             let want: [i64; 6] = core::array::from_fn(|i| mul_shift(k[i], x, shift));
             assert_eq!(mul_shift_each(&k, x, shift), want, "{k:?} {x} {shift}");
-        }
-    }
-
-    #[test]
-    fn round_mul_is_round_shift_of_wide_mul() {
-        let mut x = 0x7A3D_1E55_C0FF_EE11u64;
-        let mut next = || {
-            x = x.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
-            x
-        };
-        let edges = [0, 1, -1, i32::MAX, i32::MIN, 1 << 16, -(1 << 16)];
-        for n in 0..300_000u32 {
-            let r = next();
-            let v = if n % 11 == 0 {
-                edges[(r % 7) as usize]
-            } else {
-                (r >> 32) as i32 >> (r % 31)
-            };
-            let m = if n % 13 == 0 {
-                1 << 31
-            } else {
-                (next() >> 33) as u32 >> ((r >> 8) % 32)
-            };
-            let shift = 1 + (r >> 16) as u32 % 61;
-            let negative = r & 1 == 1;
-            let signed = if negative {
-                -i64::from(m)
-            } else {
-                i64::from(m)
-            };
-            let want = round_shift(i64::from(v) * signed, shift);
-            assert_eq!(
-                round_mul(v, m, negative, shift),
-                want,
-                "{v} x {signed} >> {shift}"
-            );
         }
     }
 
