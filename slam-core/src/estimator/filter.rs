@@ -52,6 +52,8 @@ pub struct Estimator {
     noise_carry: [u8; N],
     /// The process noise's parts the configuration fixes.
     noise: NoiseParts,
+    /// The camera's noise as the configuration fixes it.
+    pub(super) sighting_noise: SightingNoise,
     /// The cosine of the camera's half view (Q16), worked out once: a tag's bearing
     /// whose cosine is below it is outside the picture.
     pub(super) view_cos: i32,
@@ -79,6 +81,7 @@ impl Estimator {
             counters: TagCounters::default(),
             noise_carry: [0; N],
             noise: NoiseParts::of(c),
+            sighting_noise: SightingNoise::of(c),
             view_cos: Angle::from_millidegrees(i64::from(c.half_view_mdeg)).cos(),
         };
         e.settle();
@@ -311,6 +314,28 @@ impl NoiseParts {
                 noise_var(bias_q8(c.gyro_bias_walk_udps)),
                 noise_var(scale_q8(c.flow_scale_walk_ppm)),
             ],
+        }
+    }
+}
+
+/// The camera's noise in the filter's units, worked out once from the configuration.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct SightingNoise {
+    /// The range noise's constant part, position units.
+    pub(super) range_sigma: i64,
+    /// The range noise's share of the range, Q16 (of the per mille: Q16 of 1/1000 is
+    /// 65.536).
+    pub(super) range_share_q16: i64,
+    /// The bearing noise at the picture's centre, heading units.
+    pub(super) bearing_sigma: i64,
+}
+
+impl SightingNoise {
+    fn of(c: &EstimatorConfig) -> SightingNoise {
+        SightingNoise {
+            range_sigma: i64::from(c.range_noise_mm) * units::POSITION_PER_MM,
+            range_share_q16: mul_shift(i64::from(c.range_noise_permille), 4_294_967, 16),
+            bearing_sigma: units::heading_from_mdeg(i64::from(c.bearing_noise_mdeg)),
         }
     }
 }
