@@ -43,26 +43,22 @@ fn max_abs(v: &[i32; N]) -> u32 {
     v.iter().fold(0, |m, x| m.max(x.unsigned_abs()))
 }
 
-/// A bound on every `|k1[i] a1[j] + k2[i] a2[j]|` plus the rounding bias, which chooses
-/// [`Covariance::update`]'s loop: worked out once for both of its tests.
-fn products_bound(k1: &[i32; N], a1: &[i32; N], k2: &[i32; N], a2: &[i32; N]) -> u64 {
-    wide_mul_unsigned(max_abs(k1), max_abs(a1))
-        + wide_mul_unsigned(max_abs(k2), max_abs(a2))
-        + (1 << (GAIN_SHIFT - 1))
-}
-
 /// Whether every `k1[i] a1[j] + k2[i] a2[j]`, rounded, fits an `i32`: then the update's
 /// products are the M0+'s single-cycle multiplies, and its result the same bit for bit.
-#[cfg(test)]
 fn products_fit_i32(k1: &[i32; N], a1: &[i32; N], k2: &[i32; N], a2: &[i32; N]) -> bool {
-    products_bound(k1, a1, k2, a2) <= i32::MAX as u64
+    let bound = wide_mul_unsigned(max_abs(k1), max_abs(a1))
+        + wide_mul_unsigned(max_abs(k2), max_abs(a2))
+        + (1 << (GAIN_SHIFT - 1));
+    bound <= i32::MAX as u64
 }
 
 /// Whether every rounded `(k1[i] a1[j] + k2[i] a2[j]) / 2^16` fits an `i32`: then
 /// [`Covariance::update_halves`] gives it exactly.
-#[cfg(test)]
 fn update_fits_i32(k1: &[i32; N], a1: &[i32; N], k2: &[i32; N], a2: &[i32; N]) -> bool {
-    products_bound(k1, a1, k2, a2) < 1 << (31 + GAIN_SHIFT)
+    let bound = wide_mul_unsigned(max_abs(k1), max_abs(a1))
+        + wide_mul_unsigned(max_abs(k2), max_abs(a2))
+        + (1 << (GAIN_SHIFT - 1));
+    bound < 1 << (31 + GAIN_SHIFT)
 }
 
 /// A vector in 16-bit halves, `x = hi 2^16 + lo`, `|hi| <= 2^15`, and `lo` within
@@ -328,27 +324,23 @@ impl Covariance {
         let [(a1, s1), (a2, s2)] = updates;
         let (k1, k2) = (s1.times_each(a1, GAIN_SHIFT), s2.times_each(a2, GAIN_SHIFT));
         match (narrow(&k1), narrow(a1), narrow(&k2), narrow(a2)) {
-            (Some(k1), Some(a1), Some(k2), Some(a2)) => {
-                let bound = products_bound(&k1, &a1, &k2, &a2);
-                if bound <= i32::MAX as u64 {
-                    // A converged filter's products fit 31 bits: one multiply each.
-                    self.update_narrow([(&k1, &a1), (&k2, &a2)])
-                } else if bound < 1 << (31 + GAIN_SHIFT) {
-                    // Larger ones whose result fits 32 bits: four single-cycle
-                    // multiplies of halves.
-                    self.update_halves([(&k1, &a1), (&k2, &a2)])
-                } else {
-                    // A working filter's gains and `P h` fit 32 bits: 32 x 32 multiplies.
-                    self.update_32x32([(&k1, &a1), (&k2, &a2)])
-                }
+            // A converged filter's products fit 31 bits: one multiply each.
+            (Some(k1), Some(a1), Some(k2), Some(a2)) if products_fit_i32(&k1, &a1, &k2, &a2) => {
+                self.update_narrow([(&k1, &a1), (&k2, &a2)])
             }
+            // Larger ones whose result fits 32 bits: four single-cycle multiplies of halves.
+            (Some(k1), Some(a1), Some(k2), Some(a2)) if update_fits_i32(&k1, &a1, &k2, &a2) => {
+                self.update_halves([(&k1, &a1), (&k2, &a2)])
+            }
+            // A working filter's gains and `P h` fit 32 bits: 32 x 32 multiplies.
+            (Some(k1), Some(a1), Some(k2), Some(a2)) => self.update_32x32([(&k1, &a1), (&k2, &a2)]),
             _ => self.update_wide([(&k1, a1), (&k2, a2)]),
         }
         [k1, k2]
     }
 
     /// [`Covariance::update`]'s `P - k1 a1^T - k2 a2^T` where every product and their
-    /// rounded sum fit 32 bits ([`products_bound`] within `i32`).
+    /// rounded sum fit 32 bits ([`products_fit_i32`]).
     fn update_narrow(&mut self, updates: [(&[i32; N], &[i32; N]); 2]) {
         let [(k1, a1), (k2, a2)] = updates;
         for i in 0..N {
@@ -362,10 +354,9 @@ impl Covariance {
     }
 
     /// [`Covariance::update`]'s `P - k1 a1^T - k2 a2^T` where each rounded sum fits 32
-    /// bits ([`products_bound`] below `2^47`): from the vectors' [`Halves`], the sum's
-    /// bits 16 to 47 as `hi hi 2^16 + (hi lo + lo hi) + (lo lo + 2^15) / 2^16`. Only the
-    /// last term is shifted, and it is exact in 32 bits; the others wrap, as the whole
-    /// does not.
+    /// bits ([`update_fits_i32`]): from the vectors' [`Halves`], the sum's bits 16 to 47
+    /// as `hi hi 2^16 + (hi lo + lo hi) + (lo lo + 2^15) / 2^16`. Only the last term is
+    /// shifted, and it is exact in 32 bits; the others wrap, as the whole does not.
     fn update_halves(&mut self, updates: [(&[i32; N], &[i32; N]); 2]) {
         let [(k1, a1), (k2, a2)] = updates;
         let (k1, a1) = (Halves::of(k1, false), Halves::of(a1, true));
