@@ -290,6 +290,21 @@ impl Covariance {
         a
     }
 
+    /// `P h^T` for the two rows `(-sin, -cos)` and `(-cos, sin)` over x and y (a tag's
+    /// range and the unit row across its line of sight), the same as two
+    /// [`Covariance::times_unit_row`]s: in one pass, each row's x and y entries read once.
+    #[inline(never)]
+    pub fn times_sight_rows(&self, sin: i32, cos: i32) -> [[i64; N]; 2] {
+        let (x, y) = (State::X as usize, State::Y as usize);
+        let mut a = [[0i64; N]; 2];
+        for (i, row) in self.m.iter().enumerate() {
+            let (px, py) = (row[x], row[y]);
+            a[0][i] = i64::from(mul_q16_32(px, -sin)) + i64::from(mul_q16_32(py, -cos));
+            a[1][i] = i64::from(mul_q16_32(px, -cos)) + i64::from(mul_q16_32(py, sin));
+        }
+        a
+    }
+
     /// Column `j`.
     pub fn column(&self, j: State) -> [i64; N] {
         let mut c = [0i64; N];
@@ -307,14 +322,7 @@ impl Covariance {
     #[inline(never)]
     pub fn update(&mut self, updates: [(&[i64; N], &Reciprocal); 2]) -> [[i64; N]; 2] {
         let [(a1, s1), (a2, s2)] = updates;
-        let gains = |a: &[i64; N], s: &Reciprocal| {
-            let mut k = [0i64; N];
-            for (k, a) in k.iter_mut().zip(a) {
-                *k = s.times(*a, GAIN_SHIFT);
-            }
-            k
-        };
-        let (k1, k2) = (gains(a1, s1), gains(a2, s2));
+        let (k1, k2) = (s1.times_each(a1, GAIN_SHIFT), s2.times_each(a2, GAIN_SHIFT));
         match (narrow(&k1), narrow(a1), narrow(&k2), narrow(a2)) {
             // A converged filter's products fit 31 bits: one multiply each.
             (Some(k1), Some(a1), Some(k2), Some(a2)) if products_fit_i32(&k1, &a1, &k2, &a2) => {

@@ -50,6 +50,10 @@ pub struct Estimator {
     pub(super) counters: TagCounters,
     /// The process noise's fractions of a unit not yet added, in 1/256 units.
     noise_carry: [u8; N],
+    /// The process noise's parts the configuration fixes.
+    noise: NoiseParts,
+    /// The camera's noise as the configuration fixes it.
+    pub(super) sighting_noise: SightingNoise,
     /// The cosine of the camera's half view (Q16), worked out once: a tag's bearing
     /// whose cosine is below it is outside the picture.
     pub(super) view_cos: i32,
@@ -76,6 +80,8 @@ impl Estimator {
             calibration: [0; 3],
             counters: TagCounters::default(),
             noise_carry: [0; N],
+            noise: NoiseParts::of(c),
+            sighting_noise: SightingNoise::of(c),
             view_cos: Angle::from_millidegrees(i64::from(c.half_view_mdeg)).cos(),
         };
         e.settle();
@@ -188,44 +194,37 @@ impl Estimator {
         self.bound_variances();
     }
 
-    /// The noise one tick adds, in covariance units times 2^8: the standard deviations
-    /// are formed in 1/256 of a unit, so that a fraction of a unit is not rounded away
-    /// before squaring.
+    /// The noise one tick adds, in covariance units times 2^8 (see [`NoiseParts`]): the
+    /// parts that do not move with the tick's motion worked out once, at construction.
     fn process_noise_q8(&self, dx: i64, dy: i64, turn: i64, flow: bool, gyro: bool) -> [i64; N] {
-        let c = &self.config;
-        // A standard deviation in 1/256 units squared, in 1/256 units of variance.
-        let var = |sigma_q8: i64| square(sigma_q8) >> 8;
-        let position_q8 = |um: u32| units::position_from_um_frac(i64::from(um), 8);
-        let heading_q8 = |mdeg: u32| units::heading_from_mdeg_frac(i64::from(mdeg), 8);
-        let scale_q8 = |ppm: u32| units::scale_from_ppm_frac(i64::from(ppm), 8);
-        // Micro-degrees per second to 1/256 bias units (x pi / 180e6 x 2^16 x 2^8, Q16).
-        let bias_q8 = |udps: u32| mul_shift(i64::from(udps), 19_190, 16);
-        let distance = crate::pose::hypot(dx, dy).min(i64::MAX as u64) as i64;
+        let n = &self.noise;
         let turn = turn.abs();
+        // A share of the distance or of the turn only when one is configured: the seed's
+        // sensors have their scales as states, so neither (a zero share adds zero).
         let position = if flow {
-            var(position_q8(c.position_noise_um))
-                + var(mul_shift(distance, ppm_q16(c.position_noise_ppm), 8))
-                + var(mul_shift(
-                    position_q8(c.position_noise_um_per_rad),
-                    turn,
-                    16,
-                ))
+            let by_distance = if n.position_ppm_q16 == 0 {
+                0
+            } else {
+                let distance = crate::pose::hypot(dx, dy).min(i64::MAX as u64) as i64;
+                noise_var(mul_shift(distance, n.position_ppm_q16, 8))
+            };
+            n.position + by_distance + noise_var(mul_shift(n.position_per_rad_q8, turn, 16))
         } else {
-            var(position_q8(c.stale_flow_mm.saturating_mul(1000)))
+            n.stale_position
         };
         let heading = if gyro {
-            var(heading_q8(c.heading_noise_mdeg))
-                + var(mul_shift(turn, ppm_q16(c.heading_noise_ppm), 8))
+            let by_turn = if n.heading_ppm_q16 == 0 {
+                0
+            } else {
+                noise_var(mul_shift(turn, n.heading_ppm_q16, 8))
+            };
+            n.heading + by_turn
         } else {
-            var(heading_q8(c.stale_gyro_mdeg))
+            n.stale_heading
         };
+        let [gyro_scale, gyro_bias, flow_scale] = n.walks;
         [
-            position,
-            position,
-            heading,
-            var(scale_q8(c.gyro_scale_walk_ppm)),
-            var(bias_q8(c.gyro_bias_walk_udps)),
-            var(scale_q8(c.flow_scale_walk_ppm)),
+            position, position, heading, gyro_scale, gyro_bias, flow_scale,
         ]
     }
 
@@ -264,6 +263,80 @@ impl Estimator {
     /// definiteness.
     pub fn settle(&mut self) {
         self.p.bound(&FLOOR, &CEILING);
+    }
+}
+
+/// A standard deviation in 1/256 units squared, in 1/256 units of variance.
+fn noise_var(sigma_q8: i64) -> i64 {
+    square(sigma_q8) >> 8
+}
+
+/// The process noise's parts that the configuration alone fixes, in 1/256 units of
+/// variance (standard deviations formed in 1/256 of a unit, so that a fraction of a unit
+/// is not rounded away before squaring): worked out once rather than every tick.
+#[derive(Clone, Copy, Debug)]
+struct NoiseParts {
+    /// A tick's own position noise, with flow.
+    position: i64,
+    /// The position noise per radian turned, as a standard deviation in 1/256 units.
+    position_per_rad_q8: i64,
+    /// The position noise's share of the distance, Q16.
+    position_ppm_q16: i64,
+    /// A tick's position noise without flow.
+    stale_position: i64,
+    /// A tick's own heading noise, with the gyro.
+    heading: i64,
+    /// The heading noise's share of the turn, Q16.
+    heading_ppm_q16: i64,
+    /// A tick's heading noise without the gyro.
+    stale_heading: i64,
+    /// The random walks of the gyro's scale and bias and of the flow's scale.
+    walks: [i64; 3],
+}
+
+impl NoiseParts {
+    fn of(c: &EstimatorConfig) -> NoiseParts {
+        let position_q8 = |um: u32| units::position_from_um_frac(i64::from(um), 8);
+        let heading_q8 = |mdeg: u32| units::heading_from_mdeg_frac(i64::from(mdeg), 8);
+        let scale_q8 = |ppm: u32| units::scale_from_ppm_frac(i64::from(ppm), 8);
+        // Micro-degrees per second to 1/256 bias units (x pi / 180e6 x 2^16 x 2^8, Q16).
+        let bias_q8 = |udps: u32| mul_shift(i64::from(udps), 19_190, 16);
+        NoiseParts {
+            position: noise_var(position_q8(c.position_noise_um)),
+            position_per_rad_q8: position_q8(c.position_noise_um_per_rad),
+            position_ppm_q16: ppm_q16(c.position_noise_ppm),
+            stale_position: noise_var(position_q8(c.stale_flow_mm.saturating_mul(1000))),
+            heading: noise_var(heading_q8(c.heading_noise_mdeg)),
+            heading_ppm_q16: ppm_q16(c.heading_noise_ppm),
+            stale_heading: noise_var(heading_q8(c.stale_gyro_mdeg)),
+            walks: [
+                noise_var(scale_q8(c.gyro_scale_walk_ppm)),
+                noise_var(bias_q8(c.gyro_bias_walk_udps)),
+                noise_var(scale_q8(c.flow_scale_walk_ppm)),
+            ],
+        }
+    }
+}
+
+/// The camera's noise in the filter's units, worked out once from the configuration.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct SightingNoise {
+    /// The range noise's constant part, position units.
+    pub(super) range_sigma: i64,
+    /// The range noise's share of the range, Q16 (of the per mille: Q16 of 1/1000 is
+    /// 65.536).
+    pub(super) range_share_q16: i64,
+    /// The bearing noise at the picture's centre, heading units.
+    pub(super) bearing_sigma: i64,
+}
+
+impl SightingNoise {
+    fn of(c: &EstimatorConfig) -> SightingNoise {
+        SightingNoise {
+            range_sigma: i64::from(c.range_noise_mm) * units::POSITION_PER_MM,
+            range_share_q16: mul_shift(i64::from(c.range_noise_permille), 4_294_967, 16),
+            bearing_sigma: units::heading_from_mdeg(i64::from(c.bearing_noise_mdeg)),
+        }
     }
 }
 

@@ -76,7 +76,7 @@ pub fn mul_q16_unit(x: i64, v: i32) -> i64 {
 
 /// `k[i] * x / 2^shift` rounded to nearest for every `i`, the same as [`mul_shift`] on
 /// each: in single 32-bit multiplies when every product and its rounding fit 32 bits (a
-/// converged filter's gains times an innovation), else entry by entry.
+/// converged filter's gains times an innovation), else by [`round_mul_each`].
 pub fn mul_shift_each<const L: usize>(k: &[i64; L], x: i64, shift: u32) -> [i64; L] {
     let largest = k.iter().fold(0u64, |m, k| m.max(k.unsigned_abs()));
     let small = largest <= i32::MAX as u64
@@ -84,18 +84,54 @@ pub fn mul_shift_each<const L: usize>(k: &[i64; L], x: i64, shift: u32) -> [i64;
         && (1..31).contains(&shift)
         && wide_mul_unsigned(largest as u32, x.unsigned_abs() as u32) + (1 << (shift - 1))
             <= i32::MAX as u64;
-    let mut out = [0i64; L];
     if small {
         let x = x as i32;
-        for (o, &k) in out.iter_mut().zip(k) {
-            *o = i64::from(((k as i32) * x + (1 << (shift - 1))) >> shift);
-        }
-    } else {
-        for (o, &k) in out.iter_mut().zip(k) {
-            *o = mul_shift(k, x, shift);
-        }
+        return k.map(|k| i64::from(((k as i32) * x + (1 << (shift - 1))) >> shift));
     }
-    out
+    if !(fits_i32(x) && (1..62).contains(&shift)) {
+        return k.map(|k| mul_shift(k, x, shift));
+    }
+    round_mul_each(k, x.unsigned_abs() as u32, x < 0, shift, |k| {
+        mul_shift(k, x, shift)
+    })
+}
+
+/// `v[i] * m / 2^shift` rounded half up, with `m` negated when `negative`, for
+/// `1 <= shift < 62`; `other` for an entry past 32 bits. The same bits as
+/// `round_shift(wide_mul(v, m), shift)` on each: the rounding bias and which half the
+/// quotient comes from are worked out once for the vector, and each entry is then one
+/// unsigned 32 x 32 product, a 64-bit add and a shift in 32-bit halves (the M0+ has no
+/// 64-bit shifter, and the library's shifts are calls).
+#[inline(always)]
+fn round_mul_each<const L: usize>(
+    v: &[i64; L],
+    m: u32,
+    negative: bool,
+    shift: u32,
+    other: impl Fn(i64) -> i64,
+) -> [i64; L] {
+    // Half a unit of the quotient rounds a positive product half up; a negative one,
+    // -x / 2^s rounded half up, is -((x + half - 1) >> s).
+    let half = 1u64 << (shift - 1);
+    v.map(|v| {
+        if !fits_i32(v) {
+            return other(v);
+        }
+        let below = (v < 0) != negative;
+        let p =
+            wide_mul_unsigned((v as i32).unsigned_abs(), m) + if below { half - 1 } else { half };
+        let (hi, lo) = ((p >> 32) as u32, p as u32);
+        let q = if shift < 32 {
+            (u64::from(hi >> shift) << 32) | u64::from((lo >> shift) | (hi << (32 - shift)))
+        } else {
+            u64::from(hi >> (shift - 32))
+        } as i64;
+        if below {
+            -q
+        } else {
+            q
+        }
+    })
 }
 
 #[cold]
@@ -176,20 +212,47 @@ fn normalise(s: u64) -> (u32, i32) {
     (m, e as i32)
 }
 
+/// `2^30 / d` for `d = 1/2 + i / 128`, `i` from 0 to 64: [`Reciprocal::of`]'s first
+/// guesses, worked out at compile time.
+static RECIPROCAL_TABLE: [u32; 65] = {
+    let mut table = [0u32; 65];
+    let mut i = 0;
+    while i < 65 {
+        // 2^30 / (1/2 + i/128) = 2^37 / (64 + i).
+        table[i] = ((1u64 << 37) / (64 + i as u64)) as u32;
+        i += 1;
+    }
+    table
+};
+
+/// `2^61 / m` for `m` in `[2^30, 2^31)`, within `2^-13` of it: [`RECIPROCAL_TABLE`]
+/// between its points, 2^24 of `m` apart.
+fn reciprocal_guess(m: u32) -> u32 {
+    let index = ((m >> 24) - 64) as usize;
+    let frac = (m >> 8) & 0xFFFF;
+    let at = |i: usize| RECIPROCAL_TABLE.get(i).copied().unwrap_or(1 << 30);
+    let (lo, hi) = (at(index), at(index + 1));
+    // Neighbours differ by under 2^25: cut to 15 bits, times a 16-bit fraction, that
+    // fits 31 bits.
+    lo - ((((lo - hi) >> 10) * frac) >> 6)
+}
+
 impl Reciprocal {
     /// The reciprocal of `s`; `None` unless `s > 0`.
     ///
-    /// Newton-Raphson from a linear first guess, three steps of two 32-bit multiplies
-    /// each: no division (a 64-bit one is a long library loop on the M0+).
+    /// A table for the first 15 bits, then two Newton-Raphson steps of two 32-bit
+    /// multiplies each: no division (the M0+ has none, and a 64-bit one is a long library
+    /// loop).
     pub fn of(s: i64) -> Option<Reciprocal> {
         if s <= 0 {
             return None;
         }
         let (m, e) = normalise(s as u64); // s = m 2^e, m in [2^30, 2^31)
-                                          // With d = m / 2^31 in [0.5, 1), 1 / d is x / 2^30. First guess
-                                          // 48/17 - 32/17 d, within 1/17; each step squares the error.
-        let mut x = 3_031_741_621u32 - (wide_mul_unsigned(m, 4_042_322_161) >> 32) as u32;
-        for _ in 0..3 {
+                                          // With d = m / 2^31 in [0.5, 1), 1 / d is x / 2^30. First guess from the table
+                                          // of 1 / d, linear between its 65 points (within 2^-13); each step squares the
+                                          // error.
+        let mut x = reciprocal_guess(m);
+        for _ in 0..2 {
             // e = 1 - d x, in Q32 (the product d x is Q61: m is Q31, x is Q30).
             let error = ((1u64 << 61) as i64 - wide_mul_unsigned(m, x) as i64) >> 29;
             let step = wide_mul_unsigned(x, error.unsigned_abs() as u32) >> 32;
@@ -215,6 +278,17 @@ impl Reciprocal {
         } else {
             self.times_wide(x, shift)
         }
+    }
+
+    /// [`Reciprocal::times`] of each entry, the same bits, by [`round_mul_each`].
+    pub fn times_each<const L: usize>(&self, x: &[i64; L], extra: u32) -> [i64; L] {
+        let shift = self.shift - extra as i32;
+        if !(1..62).contains(&shift) {
+            return x.map(|v| self.times(v, extra));
+        }
+        round_mul_each(x, self.inv as u32, false, shift as u32, |v| {
+            self.times(v, extra)
+        })
     }
 
     #[cold]
@@ -277,6 +351,32 @@ mod tests {
             let shift = (r >> 32) as u32 % 20 + 1;
             let want: [i64; 6] = core::array::from_fn(|i| mul_shift(k[i], x, shift));
             assert_eq!(mul_shift_each(&k, x, shift), want, "{k:?} {x} {shift}");
+        }
+    }
+
+    #[test]
+    fn times_each_is_times_on_each() {
+        let mut x = 0x3C6E_F372_FE94_F82Bu64;
+        let mut next = || {
+            x = x.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            x
+        };
+        for _ in 0..50_000 {
+            let r = next();
+            let s = ((r >> 20) % (1 << ((r >> 2) % 60 + 1))) as i64 + 1;
+            let inv = Reciprocal::of(s).unwrap();
+            let v: [i64; 6] = core::array::from_fn(|i| {
+                let w = next() as i64;
+                match (r >> (8 + i)) % 8 {
+                    0 => w,
+                    1 => i64::from(i32::MIN),
+                    2 => 0,
+                    _ => w >> (32 + (r >> 16) % 31),
+                }
+            });
+            let extra = (r >> 40) as u32 % 40;
+            let want: [i64; 6] = core::array::from_fn(|i| inv.times(v[i], extra));
+            assert_eq!(inv.times_each(&v, extra), want, "{v:?} / {s} << {extra}");
         }
     }
 

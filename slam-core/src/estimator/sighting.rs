@@ -133,27 +133,31 @@ impl Estimator {
         let bearing_of =
             |a: &[i64; N]| per_range.times(dot(&h_across, a), 12) - a[State::Heading as usize];
 
-        // Range noise in position units: a constant part and a per-mille part (Q16 of
-        // 1/1000 is 65.536).
-        let range_sigma = i64::from(cfg.range_noise_mm) * units::POSITION_PER_MM
-            + mul_shift(
-                range,
-                mul_shift(i64::from(cfg.range_noise_permille), 4_294_967, 16),
-                16,
-            );
+        // Range noise in position units: a constant part and a per-mille part.
+        let noise = &self.sighting_noise;
+        let range_sigma = noise.range_sigma
+            + if noise.range_share_q16 == 0 {
+                0
+            } else {
+                mul_shift(range, noise.range_share_q16, 16)
+            };
         let r_range = square(range_sigma);
         // A pixel off the picture's centre spans a smaller angle: the column is
-        // `focal tan(bearing)`, so the bearing's noise is the centre's times cos^2.
-        let cos2 = (i64::from(cos_m) * i64::from(cos_m)) >> 16;
-        let sigma_bearing = units::heading_from_mdeg(i64::from(cfg.bearing_noise_mdeg));
-        let r_bearing = square(mul_shift(sigma_bearing, cos2, 16)).max(1);
+        // `focal tan(bearing)`, so the bearing's noise is the centre's times cos^2 (a
+        // Q16 cosine below 1.0 squares in 32 bits).
+        let cos_m_abs = cos_m.unsigned_abs();
+        let cos2 = if cos_m_abs < 1 << 16 {
+            i64::from((cos_m_abs * cos_m_abs) >> 16)
+        } else {
+            ((u64::from(cos_m_abs) * u64::from(cos_m_abs)) >> 16) as i64
+        };
+        let r_bearing = square(mul_shift(noise.bearing_sigma, cos2, 16)).max(1);
 
-        let a_range = self.p.times_unit_row(&h_range);
-        let across = self.p.times_unit_row(&h_across);
+        let [a_range, across] = self.p.times_sight_rows(sin, cos);
         let heading = self.p.column(State::Heading);
-        let mut a_bearing = [0i64; N];
-        for ((a, u), h) in a_bearing.iter_mut().zip(across).zip(heading) {
-            *a = per_range.times(u, 12) - h;
+        let mut a_bearing = per_range.times_each(&across, 12);
+        for (a, h) in a_bearing.iter_mut().zip(heading) {
+            *a -= h;
         }
         let s_range = range_of(&a_range).saturating_add(r_range);
         let s_cross = range_of(&a_bearing);

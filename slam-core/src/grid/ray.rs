@@ -93,7 +93,7 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
     /// difference rule; `advance` also counts boundaries per axis only to end a segment
     /// that stops exactly on a cell corner in its own cell. Such a walk, a spared cell
     /// anywhere but the end (a beam's hit cell is further along the same ray, so it is on
-    /// the walk only as its end cell), or evidence that adds where beams pass, is left to
+    /// the walk only as its end cell), or evidence other than the seed's, is left to
     /// `mark_free`.
     #[inline(always)]
     fn free_ray(
@@ -111,7 +111,11 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
         let spared_on_the_way = !spare_end
             && spared.is_some_and(|(c, r)| between(c, o.column, column) && between(r, o.row, row));
         let on_corner = column * cell == end.0 && row * cell == end.1;
-        if on_corner || spared_on_the_way || self.evidence.miss > 0 {
+        // Other evidence than the seed's takes the general walk: a copy of the loops for
+        // it would be flash the robot (which maps with the seed's) never runs.
+        let seed = (self.evidence.miss, self.evidence.clamp)
+            == (Evidence::SEED.miss, Evidence::SEED.clamp);
+        if on_corner || spared_on_the_way || !seed {
             return None;
         }
         let (columns, rows) = (column.abs_diff(o.column), row.abs_diff(o.row));
@@ -138,16 +142,7 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
         let at = o.row as usize * W + o.column as usize;
         let count = 1 + columns + rows - u32::from(spare_end);
         let direction = (dx > 0, dy > 0);
-        let (miss, floor) = (self.evidence.miss, -self.evidence.clamp);
-        if (miss, floor) == (Evidence::SEED.miss, -Evidence::SEED.clamp) {
-            self.free_walk_in_direction(direction, at, steps, count, SeedMiss);
-        } else {
-            let miss = AnyMiss {
-                miss: i32::from(miss),
-                floor: i32::from(floor),
-            };
-            self.free_walk_in_direction(direction, at, steps, count, miss);
-        }
+        self.free_walk_in_direction(direction, at, steps, count, SeedMiss);
         Some(count)
     }
 
@@ -380,20 +375,6 @@ impl Miss for SeedMiss {
         const MISS: i32 = Evidence::SEED.miss as i32;
         const FLOOR: i32 = -(Evidence::SEED.clamp as i32);
         (i32::from(cell) + MISS).max(FLOOR) as LogOdds
-    }
-}
-
-/// Any other evidence with a negative miss.
-#[derive(Clone, Copy)]
-struct AnyMiss {
-    miss: i32,
-    floor: i32,
-}
-
-impl Miss for AnyMiss {
-    #[inline(always)]
-    fn apply(self, cell: LogOdds) -> LogOdds {
-        (i32::from(cell) + self.miss).max(self.floor) as LogOdds
     }
 }
 
