@@ -410,7 +410,7 @@ mod tests {
         assert_eq!(messages(log.due(299)), Vec::<String>::new());
         assert_eq!(messages(log.due(300)), ["c", "d"]);
         assert_eq!(messages(log.rest()), ["no newline"]);
-        assert_eq!((log.published(), log.skipped()), (5, 1));
+        assert_eq!((log.published(), log.skipped()), (6, 1));
     }
 
     /// A reader that gives its chunks one per call and 0 in between, as a file that
