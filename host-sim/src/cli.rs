@@ -153,6 +153,11 @@ pub struct ViewArgs {
     /// Write the final map as a ROS map_server pair, DIR/map.pgm and DIR/map.yaml.
     #[arg(long, value_name = "DIR", value_hint = ValueHint::DirPath)]
     pub export_map: Option<PathBuf>,
+    /// The firmware's defmt log as text (`cargo xtask emulate`'s out/emulator/defmt.log,
+    /// or `probe-rs run ... > robot.log`, followed as it grows): its lines go out on
+    /// Foxglove's /log in time order with the ticks. Wants --live or --mcap.
+    #[arg(long, value_name = "FILE", value_hint = ValueHint::FilePath)]
+    pub log: Option<PathBuf>,
     /// Watching the stream live, and recording it for Foxglove.
     #[command(flatten)]
     pub live: LiveArgs,

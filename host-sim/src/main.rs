@@ -26,6 +26,7 @@ mod cli;
 use clap::Parser;
 use cli::{BenchArgs, Cli, Command, LiveArgs, ReplayArgs, RunArgs, ServeArgs, ViewArgs};
 use host_sim::live::foxglove::{FoxgloveSink, Outputs};
+use host_sim::live::log::FirmwareLog;
 use host_sim::live::pace::Pace;
 use host_sim::live::scene::Stage;
 use host_sim::live::{Feed, LiveSink};
@@ -124,7 +125,7 @@ fn cmd_run(args: RunArgs) -> Result<(), Failure> {
         let stop = stop_on_ctrl_c();
         let pace = args.live.live.then(|| Pace::new(args.live.speed));
         let mut recording = Recording::new();
-        let mut feed = session.feed(pace, Some(&truth));
+        let mut feed = session.feed(pace, Some(&truth), None);
         // Reading from memory cannot fail.
         let _ = host_sim::live::play(&mut recording, &mut writer.bytes(), &stop, None, &mut feed);
         feed.finish().map_err(|e| Failure(1, e.to_string()))?;
@@ -228,13 +229,23 @@ impl LiveSession {
         Ok(LiveSession { foxglove, page })
     }
 
-    /// The feed that plays into every sink.
-    fn feed<'a>(&'a mut self, pace: Option<Pace>, truth: Option<&'a [TruthSample]>) -> Feed<'a> {
+    /// The feed that plays into every sink, with the firmware's log when given.
+    fn feed<'a>(
+        &'a mut self,
+        pace: Option<Pace>,
+        truth: Option<&'a [TruthSample]>,
+        log: Option<&'a mut FirmwareLog>,
+    ) -> Feed<'a> {
         let mut sinks: Vec<&mut dyn LiveSink> = vec![&mut self.foxglove];
         if let Some(page) = &mut self.page {
             sinks.push(page);
         }
-        Feed { sinks, pace, truth }
+        Feed {
+            sinks,
+            pace,
+            truth,
+            log,
+        }
     }
 }
 
@@ -245,6 +256,26 @@ fn stop_on_ctrl_c() -> Arc<AtomicBool> {
     let flag = Arc::clone(&stop);
     let _ = ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed));
     stop
+}
+
+/// Says on stderr how much of the firmware's log went out, when some of it did not.
+fn report_firmware_log(log: &FirmwareLog, path: &Path) {
+    if log.skipped() > 0 {
+        eprintln!(
+            "host-sim: {}: {} lines skipped (not `TIME [LEVEL] message`, or longer than {} bytes); {} published on /log",
+            path.display(),
+            log.skipped(),
+            host_sim::live::log::MAX_LINE_BYTES,
+            log.published()
+        );
+    }
+    if log.truncated() {
+        eprintln!(
+            "host-sim: {}: read no further than {} bytes",
+            path.display(),
+            host_sim::live::log::MAX_LOG_BYTES
+        );
+    }
 }
 
 /// Decodes a telemetry stream, prints what it held and draws its pictures.
@@ -279,6 +310,19 @@ fn cmd_view(args: ViewArgs) -> Result<(), Failure> {
             .with_true_calibration(TrueCalibration::of(&scenario));
         stage = Stage::of(&scenario);
     }
+    let mut firmware_log = match &args.log {
+        Some(_) if !args.live.wanted() => {
+            return Err(Failure(
+                2,
+                "--log goes out on Foxglove's /log: it wants --live or --mcap".to_string(),
+            ))
+        }
+        Some(path) => Some(
+            FirmwareLog::open(path)
+                .map_err(|e| Failure(2, format!("cannot read {}: {e}", path.display())))?,
+        ),
+        None => None,
+    };
     let mut session = if args.live.wanted() {
         Some(LiveSession::start(&args.live, stage, outline.as_ref())?)
     } else {
@@ -286,7 +330,9 @@ fn cmd_view(args: ViewArgs) -> Result<(), Failure> {
     };
     // A file plays at its recorded pace when watched; a port comes at its own.
     let pace = (args.live.live && !serial).then(|| Pace::new(args.live.speed));
-    let mut feed = session.as_mut().map(|s| s.feed(pace, truth.as_deref()));
+    let mut feed = session
+        .as_mut()
+        .map(|s| s.feed(pace, truth.as_deref(), firmware_log.as_mut()));
     let mut read_from = |recording: &mut Recording, source: &mut dyn std::io::Read| match &mut feed
     {
         Some(feed) => host_sim::live::play(recording, source, &stop, deadline, feed),
@@ -315,6 +361,10 @@ fn cmd_view(args: ViewArgs) -> Result<(), Failure> {
     }
     if let Some(feed) = &mut feed {
         feed.finish().map_err(|e| Failure(1, e.to_string()))?;
+    }
+    drop(feed);
+    if let (Some(log), Some(path)) = (&firmware_log, &args.log) {
+        report_firmware_log(log, path);
     }
     let summary = recording.summary();
     if summary.frames_ok == 0 {

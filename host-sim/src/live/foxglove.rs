@@ -16,13 +16,14 @@
 //! | `/tags/sightings` | `foxglove.SceneUpdate`, the tags in the tick's picture | every tick with inputs |
 //! | `/health` | JSON: the sensors' fault counters and the core's counters | every `Health` |
 //! | `/filter` | JSON: the covariance, the learned calibration and the tags used and refused | every `Filter` |
-//! | `/log` | `foxglove.Log`: what the viewer noticed in the stream (a `Hello`, a restart, the end) | as it happens |
+//! | `/log` | `foxglove.Log`: what the viewer noticed in the stream (a `Hello`, a restart, the end), name `host-sim`; and with `view --log` the firmware's defmt lines, name `firmware`, at their own times | as it happens; a firmware line just before the first tick at or after it |
 //!
 //! Times are the wall clock when the session started plus the stream's own time, so a
 //! recorded run plays in the app as it was recorded; a restart of the robot carries on
 //! from where its time stood.
 
 use super::grid::LatestMap;
+use super::log::{LogLevel, LogLine};
 use super::mcap::McapFile;
 use super::path::{Path, PathPoint};
 use super::scene::{self, Stage, MAP_FRAME, ROBOT_FRAME};
@@ -181,11 +182,22 @@ impl Clock {
             .saturating_add((self.offset_ms + u64::from(self.last_ms)).saturating_mul(1_000_000))
     }
 
-    fn timestamp(&self) -> Timestamp {
-        let ns = self.now_ns();
-        let sec = u32::try_from(ns / 1_000_000_000).unwrap_or(u32::MAX);
-        Timestamp::new(sec, (ns % 1_000_000_000) as u32)
+    /// The app's time of a firmware log line at `time_ms` since boot: the robot's clock
+    /// is the stream's, so it is placed as a tick at that time would be.
+    fn at_ns(&self, time_ms: u64) -> u64 {
+        self.start_ns
+            .saturating_add((self.offset_ms.saturating_add(time_ms)).saturating_mul(1_000_000))
     }
+
+    fn timestamp(&self) -> Timestamp {
+        timestamp_of(self.now_ns())
+    }
+}
+
+/// Nanoseconds since the Unix epoch as a message's timestamp.
+fn timestamp_of(ns: u64) -> Timestamp {
+    let sec = u32::try_from(ns / 1_000_000_000).unwrap_or(u32::MAX);
+    Timestamp::new(sec, (ns % 1_000_000_000) as u32)
 }
 
 /// The Foxglove end of a live session: see [the module](self).
@@ -253,6 +265,25 @@ impl FoxgloveSink {
             ..Log::default()
         };
         self.channels.log.log_with_time(&log, self.clock.now_ns());
+    }
+
+    fn firmware_log(&self, line: &LogLine) {
+        let level = match line.level {
+            Some(LogLevel::Trace | LogLevel::Debug) => Level::Debug,
+            Some(LogLevel::Info) => Level::Info,
+            Some(LogLevel::Warn) => Level::Warning,
+            Some(LogLevel::Error) => Level::Error,
+            None => Level::Unknown,
+        };
+        let ns = self.clock.at_ns(line.time_ms);
+        let log = Log {
+            timestamp: Some(timestamp_of(ns)),
+            level: level as i32,
+            message: line.message.clone(),
+            name: "firmware".to_string(),
+            ..Log::default()
+        };
+        self.channels.log.log_with_time(&log, ns);
     }
 
     fn json<T: Serialize>(&self, channel: &RawChannel, value: &T) {
@@ -447,6 +478,10 @@ impl LiveSink for FoxgloveSink {
             Message::Filter(f) => self.take_filter(f),
             Message::Inputs(i) => self.seen = Some(i.frame.tags.iter().copied().collect()),
         }
+    }
+
+    fn log_line(&mut self, line: &LogLine) {
+        self.firmware_log(line);
     }
 
     fn truth(&mut self, s: &TruthSample) {

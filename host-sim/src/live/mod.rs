@@ -6,7 +6,8 @@
 //! file) and the zero-install page. [`play`] is that loop: it decodes, keeps the usual
 //! [`Recording`] (so the summary and the pictures are what `view` gives), paces a recorded
 //! stream at the speed its ticks were recorded ([`pace::Pace`]) and hands each message,
-//! and the true pose when known, to every sink.
+//! and the true pose when known, to every sink, with the firmware's log lines
+//! ([`log::FirmwareLog`], `view --log`) each just before the first tick at or after its time.
 //!
 //! A simulated run is simulated first (a few seconds at most: the simulator runs
 //! thousands of times faster than the robot) and its stream then played like a file, so
@@ -14,6 +15,7 @@
 
 pub mod foxglove;
 pub mod grid;
+pub mod log;
 pub mod mcap;
 pub mod pace;
 pub mod path;
@@ -39,6 +41,8 @@ pub trait LiveSink {
     fn message(&mut self, message: &Message);
     /// The true pose at the `Tick` given next (in simulation, or with `--truth`).
     fn truth(&mut self, _sample: &TruthSample) {}
+    /// A line of the firmware's log, given before the first `Tick` at or after its time.
+    fn log_line(&mut self, _line: &log::LogLine) {}
     /// The stream has ended: publish what is pending and close.
     fn finish(&mut self) -> Result<(), LiveError> {
         Ok(())
@@ -98,6 +102,8 @@ pub struct Feed<'a> {
     pub pace: Option<Pace>,
     /// The true poses in time order, paired with each `Tick` by [`truth_at`].
     pub truth: Option<&'a [TruthSample]>,
+    /// The firmware's log, handed out as its lines fall due.
+    pub log: Option<&'a mut log::FirmwareLog>,
 }
 
 impl Feed<'_> {
@@ -107,6 +113,13 @@ impl Feed<'_> {
         if let (Message::Tick(t), Some(pace)) = (message, self.pace.as_mut()) {
             if !pace.wait_for(t.time_ms, stop, deadline) {
                 return false;
+            }
+        }
+        if let (Message::Tick(t), Some(log)) = (message, self.log.as_deref_mut()) {
+            for line in log.due(t.time_ms) {
+                for sink in self.sinks.iter_mut() {
+                    sink.log_line(&line);
+                }
             }
         }
         if let (Message::Tick(t), Some(truth)) = (message, self.truth) {
@@ -122,8 +135,16 @@ impl Feed<'_> {
         true
     }
 
-    /// Ends every sink; the first error is returned after all were ended.
+    /// Hands out the log's remaining lines and ends every sink; the first error is
+    /// returned after all were ended.
     pub fn finish(&mut self) -> Result<(), LiveError> {
+        if let Some(log) = self.log.as_deref_mut() {
+            for line in log.rest() {
+                for sink in self.sinks.iter_mut() {
+                    sink.log_line(&line);
+                }
+            }
+        }
         let mut result = Ok(());
         for sink in self.sinks.iter_mut() {
             let r = sink.finish();

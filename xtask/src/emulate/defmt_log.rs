@@ -2,8 +2,9 @@
 //!
 //! The harness captures the defmt RTT up-channel as raw bytes; this module turns them into
 //! lines with `defmt-decoder` (the crate `defmt-print` is built on, at the version that
-//! reads `defmt = "1"`'s wire format) and reads the firmware's loop counters from its
-//! once-a-second line. A log that cannot be decoded is a [`DefmtError`], never a figure
+//! reads `defmt = "1"`'s wire format), writes them as text the way `probe-rs run` prints
+//! them ([`text`], for `host-sim view --log`) and reads the firmware's loop counters from
+//! its once-a-second line. A log that cannot be decoded is a [`DefmtError`], never a figure
 //! left empty.
 
 use std::fmt;
@@ -51,11 +52,38 @@ lines): the log was not written by this ELF, or the capture is corrupt"
 
 impl std::error::Error for DefmtError {}
 
-/// One decoded line: its level (`INFO`, ..., empty for `println!`) and its message.
+/// One decoded line: its timestamp as the firmware's `defmt::timestamp!` shows it (seconds
+/// since boot, `1.234`; empty without one), its level (`INFO`, ..., empty for `println!`)
+/// and its message.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct LogLine {
+    pub time: String,
     pub level: String,
     pub message: String,
+}
+
+impl LogLine {
+    /// The line as `probe-rs run` prints it for this firmware, `{t} [{L}] {s}` with the
+    /// level padded to five characters (`1.234 [INFO ] message`), without the location:
+    /// the same shape whether the log came from the emulator or a robot on a probe. A
+    /// message spread over lines is joined with spaces, so that an entry is one line.
+    pub fn probe_rs_line(&self) -> String {
+        let mut line = String::new();
+        if !self.time.is_empty() {
+            line.push_str(&self.time);
+            line.push(' ');
+        }
+        if !self.level.is_empty() {
+            line.push_str(&format!("[{:<5}] ", self.level));
+        }
+        line.push_str(&self.message.replace(['\r', '\n'], " "));
+        line
+    }
+}
+
+/// The whole log as text, a [`LogLine::probe_rs_line`] per line.
+pub fn text(lines: &[LogLine]) -> String {
+    lines.iter().map(|l| l.probe_rs_line() + "\n").collect()
 }
 
 impl fmt::Display for LogLine {
@@ -87,6 +115,9 @@ fn decode_with(table: &Table, log: &[u8]) -> Result<Vec<LogLine>, DefmtError> {
     loop {
         match decoder.decode() {
             Ok(frame) => lines.push(LogLine {
+                time: frame
+                    .display_timestamp()
+                    .map_or_else(String::new, |t| t.to_string()),
                 level: frame
                     .level()
                     .map_or_else(String::new, |l| l.as_str().to_uppercase()),
@@ -282,6 +313,30 @@ pub(crate) mod tests {
     }
 
     #[test]
+    fn the_text_log_is_one_probe_rs_line_per_entry_with_its_time() {
+        let elf = fixture_elf(&[
+            ("defmt_timestamp", "{=u64:ms}"),
+            ("defmt_info", "BugBot firmware {=str}"),
+            ("defmt_warn", "depth: {=u8} read errors"),
+            ("defmt_println", "two{=str}lines"),
+        ]);
+        // Raw encoding: the index, the timestamp's u64, then the arguments.
+        let at = |ms: u64, args: &[u8]| [&ms.to_le_bytes()[..], args].concat();
+        let mut log = frame(2, &at(5, &[5, 0, 0, 0, b'0', b'.', b'1', b'.', b'0']));
+        log.extend(frame(3, &at(1234, &[7])));
+        log.extend(frame(4, &at(1000, &[1, 0, 0, 0, b'\n'])));
+        let lines = decode(&elf, &log).unwrap();
+        assert_eq!(
+            text(&lines),
+            "0.005 [INFO ] BugBot firmware 0.1.0\n\
+             1.234 [WARN ] depth: 7 read errors\n\
+             1.000 two lines\n"
+        );
+        // `last_logs` keeps its shape: level and message.
+        assert_eq!(lines[1].to_string(), "WARN depth: 7 read errors");
+    }
+
+    #[test]
     fn a_frame_cut_off_at_the_end_is_not_an_error() {
         let mut log = counters_frame([10, 0, 12, 3400]);
         log.extend(&counters_frame([20, 0, 12, 3400])[..7]);
@@ -314,6 +369,7 @@ pub(crate) mod tests {
     #[test]
     fn counters_are_read_from_their_line_only() {
         let line = |m: &str| LogLine {
+            time: String::new(),
             level: "INFO".into(),
             message: m.into(),
         };
@@ -341,6 +397,7 @@ max_late_us: 30, max_step_us: 9000, max_telemetry_us: 80 } | beams=3"
     fn figures_hold_the_counters_and_the_last_lines() {
         let lines: Vec<LogLine> = (0..10)
             .map(|i| LogLine {
+                time: format!("{i}.000"),
                 level: "INFO".into(),
                 message: format!("line {i}"),
             })

@@ -5,7 +5,8 @@
 //! build the firmware (`cargo xtask firmware`), build `host-sim`, run
 //! `tests/emulator/harness.mjs` (which starts `host-sim serve` itself and talks to it over
 //! two FIFOs, so the world is read at exactly the simulated instant the firmware asks),
-//! then decode the firmware's defmt log ([`defmt_log`], with the table from the ELF) for
+//! then decode the firmware's defmt log ([`defmt_log`], with the table from the ELF; written as text
+//! with its times to `defmt.log`) for
 //! its own loop counters, and the captured telemetry with `host-sim view`, which prints the figures and
 //! draws the pictures into `out/emulator/`. The harness also records the world's true pose
 //! at each step (`truth.jsonl`), so `view --truth --scenario` reports the figures
@@ -154,6 +155,11 @@ pub fn run(args: &EmulateArgs) -> Result<(), String> {
 
     // The firmware's own view of its loop, from its defmt log.
     let lines = read_defmt_log(&elf, &defmt)?;
+    // Beside the capture, as text with the firmware's times: what `host-sim view --log`
+    // reads, in the shape `probe-rs run` prints on a robot.
+    let defmt_text = out_dir.join("defmt.log");
+    std::fs::write(&defmt_text, defmt_log::text(&lines))
+        .map_err(|e| format!("cannot write {}: {e}", defmt_text.display()))?;
     if !args.json {
         for line in &lines {
             eprintln!("{line}");
