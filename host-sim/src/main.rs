@@ -110,18 +110,7 @@ fn cmd_run(args: RunArgs) -> Result<(), Failure> {
             .map_err(|e| Failure(1, format!("cannot write {}: {e}", path.display())))?;
     }
     if let (Some(session), Some(writer)) = (session.as_mut(), &writer) {
-        // The run's truth, as the emulator's harness would record it.
-        let truth: Vec<TruthSample> = output
-            .record
-            .ticks
-            .iter()
-            .map(|t| TruthSample {
-                t_s: t.t_s,
-                x_mm: t.truth_mm.0,
-                y_mm: t.truth_mm.1,
-                heading_deg: t.truth_heading_deg,
-            })
-            .collect();
+        let truth = output.record.truth_samples();
         let stop = stop_on_ctrl_c();
         let pace = args.live.live.then(|| Pace::new(args.live.speed));
         let mut recording = Recording::new();

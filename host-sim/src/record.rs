@@ -6,6 +6,7 @@
 use crate::consistency::TagFigures;
 use crate::robot::wrap_deg;
 use crate::scenario::Scenario;
+use crate::truth::TruthSample;
 use crate::world::World;
 use serde::Serialize;
 use slam_core::estimator::{HEADING_UNITS_PER_RAD, POSITION_UNITS_PER_MM};
@@ -245,7 +246,7 @@ impl WorldOutline {
 pub struct RunRecord {
     /// The scenario's name.
     pub scenario: String,
-    /// Which pose the mapper used: `truth`, `dead-reckoning`, `tags` or `slam`.
+    /// Which pose the mapper used: a `--pose` name.
     pub pose_mode: String,
     /// The corrections the filter should learn, when the scenario is known.
     pub true_calibration: Option<TrueCalibration>,
@@ -255,6 +256,21 @@ pub struct RunRecord {
     pub map: MapSnapshot,
     /// The world under it.
     pub world: WorldOutline,
+}
+
+impl RunRecord {
+    /// The true pose at each tick, in tick order, as the emulator's harness records it.
+    pub fn truth_samples(&self) -> Vec<TruthSample> {
+        self.ticks
+            .iter()
+            .map(|t| TruthSample {
+                t_s: t.t_s,
+                x_mm: t.truth_mm.0,
+                y_mm: t.truth_mm.1,
+                heading_deg: t.truth_heading_deg,
+            })
+            .collect()
+    }
 }
 
 #[cfg(test)]

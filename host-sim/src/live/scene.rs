@@ -35,16 +35,7 @@ impl Stage {
     pub fn of(scenario: &Scenario) -> Stage {
         let config = crate::run::slam_config(scenario);
         Stage {
-            tags: scenario
-                .world
-                .tags
-                .iter()
-                .map(|t| KnownTag {
-                    id: t.id,
-                    x_mm: t.x_mm.round() as i32,
-                    y_mm: t.y_mm.round() as i32,
-                })
-                .collect(),
+            tags: config.tags.as_slice().to_vec(),
             camera: config.camera,
         }
     }

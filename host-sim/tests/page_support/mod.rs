@@ -26,17 +26,7 @@ pub struct RecordedRun {
 impl RecordedRun {
     /// The true pose at each tick, in tick order.
     pub fn truth(&self) -> Vec<TruthSample> {
-        self.output
-            .record
-            .ticks
-            .iter()
-            .map(|t| TruthSample {
-                t_s: t.t_s,
-                x_mm: t.truth_mm.0,
-                y_mm: t.truth_mm.1,
-                heading_deg: t.truth_heading_deg,
-            })
-            .collect()
+        self.output.record.truth_samples()
     }
 
     /// The last tick's number.
