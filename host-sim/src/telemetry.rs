@@ -747,6 +747,18 @@ impl Recording {
         stop: &AtomicBool,
         deadline: Option<Instant>,
     ) -> io::Result<()> {
+        self.read_each(source, stop, deadline, |_| true)
+    }
+
+    /// As [`Recording::read_from`], handing each good message to `each` once recorded;
+    /// the reading ends early when `each` returns `false`.
+    pub fn read_each(
+        &mut self,
+        source: &mut dyn Read,
+        stop: &AtomicBool,
+        deadline: Option<Instant>,
+        mut each: impl FnMut(&Message) -> bool,
+    ) -> io::Result<()> {
         let mut buf = [0u8; 4096];
         loop {
             if stop.load(Ordering::Relaxed) || deadline.is_some_and(|d| Instant::now() >= d) {
@@ -754,7 +766,14 @@ impl Recording {
             }
             match source.read(&mut buf) {
                 Ok(0) => return Ok(()),
-                Ok(n) => self.feed(buf.get(..n).unwrap_or(&[])),
+                Ok(n) => {
+                    for message in self.decoder.feed(buf.get(..n).unwrap_or(&[])).flatten() {
+                        self.recorder.push(&message);
+                        if !each(&message) {
+                            return Ok(());
+                        }
+                    }
+                }
                 Err(e)
                     if matches!(
                         e.kind(),

@@ -27,7 +27,7 @@ use crate::truth::{truth_at, TruthSample};
 use pace::Pace;
 use std::fmt;
 use std::io::{self, Read};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 use wire::telemetry::Message;
 
@@ -169,30 +169,7 @@ pub fn play(
     deadline: Option<Instant>,
     feed: &mut Feed<'_>,
 ) -> io::Result<()> {
-    let mut buf = [0u8; 4096];
-    loop {
-        if stop.load(Ordering::Relaxed) || deadline.is_some_and(|d| Instant::now() >= d) {
-            return Ok(());
-        }
-        match source.read(&mut buf) {
-            Ok(0) => return Ok(()),
-            Ok(n) => {
-                let bytes = buf.get(..n).unwrap_or(&[]);
-                for message in recording.decoder.feed(bytes).flatten() {
-                    recording.recorder.push(&message);
-                    if !feed.push(&message, stop, deadline) {
-                        return Ok(());
-                    }
-                }
-            }
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::TimedOut
-                        | io::ErrorKind::Interrupted
-                        | io::ErrorKind::WouldBlock
-                ) => {}
-            Err(e) => return Err(e),
-        }
-    }
+    recording.read_each(source, stop, deadline, |message| {
+        feed.push(message, stop, deadline)
+    })
 }
