@@ -5,7 +5,7 @@ use super::filter::Estimator;
 use super::fixed::{fits_i32, mul_q16_unit, mul_shift, mul_shift_each, square, Reciprocal};
 use super::units::{self, FINE_SHIFT};
 use super::{State, TagRefusal};
-use crate::angle::{sin_cos_of_vector, Angle};
+use crate::angle::{sin_cos_of_vector, Angle, TRIG_ONE};
 use crate::frame::TagDetection;
 use crate::pose::{hypot, mul_q16_32, Pose};
 use crate::tagfix::{CameraConfig, KnownTag};
@@ -95,8 +95,11 @@ impl Estimator {
         let clamp = |v: i64| v.clamp(-(i32::MAX as i64), i32::MAX as i64) as i32;
         let (sin, cos) = sin_cos_of_vector(clamp(dx_um), clamp(dy_um));
         let (sin_h, cos_h) = (then.heading.sin(), then.heading.cos());
-        let sin_b = mul_q16_32(sin, cos_h) - mul_q16_32(cos, sin_h);
-        let cos_b = mul_q16_32(cos, cos_h) + mul_q16_32(sin, sin_h);
+        // Each product rounds, so a sum can reach one unit past 1.0, which the products
+        // below take as out of range: held within the unit circle.
+        let unit = |v: i32| v.clamp(-TRIG_ONE, TRIG_ONE);
+        let sin_b = unit(mul_q16_32(sin, cos_h) - mul_q16_32(cos, sin_h));
+        let cos_b = unit(mul_q16_32(cos, cos_h) + mul_q16_32(sin, sin_h));
         if cfg.half_view_mdeg < 180_000 && cos_b < self.view_cos {
             return Err(TagRefusal::Behind);
         }
