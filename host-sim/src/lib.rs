@@ -41,6 +41,7 @@
 
 pub mod bounded;
 pub mod consistency;
+pub mod decimated;
 pub mod live;
 pub mod page;
 pub mod picture;

@@ -25,7 +25,7 @@
 use super::grid::LatestMap;
 use super::log::{LogLevel, LogLine};
 use super::mcap::McapFile;
-use super::path::{Path, PathPoint};
+use super::path::{new_path, Path, PathPoint};
 use super::scene::{self, Stage, MAP_FRAME, ROBOT_FRAME};
 use super::websocket::FoxgloveServer;
 use super::{LiveError, LiveSink};
@@ -241,8 +241,8 @@ impl FoxgloveSink {
             stage,
             clock: Clock::new(),
             map: LatestMap::new(),
-            estimated: Path::new(),
-            truth: Path::new(),
+            estimated: new_path(),
+            truth: new_path(),
             last_tick: None,
             ticks: 0,
             seen: None,

@@ -1,5 +1,7 @@
 //! A path that stays small however long the run: decimated as it grows.
 
+use crate::decimated::Decimated;
+
 /// A point of a path: the map position, millimetres, and the heading, degrees clockwise
 /// from +y.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -15,57 +17,12 @@ pub struct PathPoint {
 /// The most points a path keeps: at 10 Hz a whole hour decimates to every 8th tick.
 pub const MAX_PATH_POINTS: usize = 4096;
 
-/// Every `stride`-th point pushed, at most [`MAX_PATH_POINTS`] of them (then the stride
-/// doubles and every other point is dropped), and always the latest.
-#[derive(Clone, Debug, Default)]
-pub struct Path {
-    kept: Vec<PathPoint>,
-    latest: Option<PathPoint>,
-    stride: u64,
-    pushed: u64,
-}
+/// A path of at most [`MAX_PATH_POINTS`] points (and the latest), evenly spread.
+pub type Path = Decimated<PathPoint>;
 
-impl Path {
-    /// An empty path.
-    pub fn new() -> Path {
-        Path {
-            stride: 1,
-            ..Path::default()
-        }
-    }
-
-    /// Adds the newest point.
-    pub fn push(&mut self, p: PathPoint) {
-        if self.pushed.is_multiple_of(self.stride.max(1)) {
-            if self.kept.len() >= MAX_PATH_POINTS {
-                let mut i = 0;
-                self.kept.retain(|_| {
-                    i += 1;
-                    i % 2 == 1
-                });
-                self.stride = self.stride.saturating_mul(2);
-            }
-            if self.pushed.is_multiple_of(self.stride.max(1)) {
-                self.kept.push(p);
-            }
-        }
-        self.pushed += 1;
-        self.latest = Some(p);
-    }
-
-    /// The path to draw: the kept points and the latest, if it was not kept.
-    pub fn points(&self) -> impl Iterator<Item = &PathPoint> {
-        let tail = match (self.kept.last(), &self.latest) {
-            (Some(k), Some(l)) if k == l => None,
-            (_, l) => l.as_ref(),
-        };
-        self.kept.iter().chain(tail)
-    }
-
-    /// Whether nothing was pushed.
-    pub fn is_empty(&self) -> bool {
-        self.latest.is_none()
-    }
+/// An empty path.
+pub fn new_path() -> Path {
+    Decimated::new(MAX_PATH_POINTS)
 }
 
 #[cfg(test)]
@@ -82,7 +39,7 @@ mod tests {
 
     #[test]
     fn a_long_path_is_capped_and_ends_at_the_latest_point() {
-        let mut path = Path::new();
+        let mut path = new_path();
         assert!(path.is_empty());
         for i in 0..36_000 {
             path.push(at(i));
@@ -103,7 +60,7 @@ mod tests {
 
     #[test]
     fn a_short_path_keeps_every_point() {
-        let mut path = Path::new();
+        let mut path = new_path();
         for i in 0..10 {
             path.push(at(i));
         }

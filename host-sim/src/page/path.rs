@@ -1,6 +1,7 @@
 //! A path of bounded length for the live page: however long the run, it keeps at most
 //! [`MAX_PATH_POINTS`] points spread evenly along it.
 
+use crate::decimated::Decimated;
 use serde::Serialize;
 
 /// The most points a path keeps. At a tick every 100 ms that is every tick of the
@@ -16,74 +17,44 @@ pub struct PathPoint {
     pub y_mm: f64,
 }
 
-/// Points in the order they came, decimated when full: every other point is dropped
-/// and from then on only every other new point is kept (every fourth after the next
-/// time, ...), so the kept points stay evenly spread and the newest is always there.
-#[derive(Clone, Debug, Default)]
-pub struct DecimatedPath {
-    points: Vec<PathPoint>,
-    /// Keep one point in `stride`.
-    stride: u64,
-    /// Points offered since the last kept one.
-    since_kept: u64,
-    /// The newest point offered, kept or not: the path always ends where the robot is.
-    newest: Option<PathPoint>,
+/// A path of at most [`MAX_PATH_POINTS`] points (and the newest), evenly spread; points
+/// that are not finite are left out.
+#[derive(Clone, Debug)]
+pub struct DecimatedPath(Decimated<PathPoint>);
+
+impl Default for DecimatedPath {
+    fn default() -> DecimatedPath {
+        DecimatedPath::new()
+    }
 }
 
 impl DecimatedPath {
     /// An empty path.
     pub fn new() -> DecimatedPath {
-        DecimatedPath {
-            points: Vec::new(),
-            stride: 1,
-            since_kept: 0,
-            newest: None,
-        }
+        DecimatedPath(Decimated::new(MAX_PATH_POINTS))
     }
 
     /// Adds the next point. Points that are not finite are ignored.
     pub fn push(&mut self, point: PathPoint) {
-        if !(point.x_mm.is_finite() && point.y_mm.is_finite()) {
-            return;
+        if point.x_mm.is_finite() && point.y_mm.is_finite() {
+            self.0.push(point);
         }
-        self.newest = Some(point);
-        self.since_kept += 1;
-        if self.since_kept < self.stride {
-            return;
-        }
-        self.since_kept = 0;
-        if self.points.len() >= MAX_PATH_POINTS {
-            // Keep the even ones (the first among them), double the stride.
-            let mut i = 0;
-            self.points.retain(|_| {
-                i += 1;
-                i % 2 == 1
-            });
-            self.stride = self.stride.saturating_mul(2);
-        }
-        self.points.push(point);
     }
 
     /// The kept points, then the newest one if it was not kept: at most
     /// [`MAX_PATH_POINTS`] + 1.
     pub fn points(&self) -> Vec<PathPoint> {
-        let mut out = self.points.clone();
-        if let Some(p) = self.newest {
-            if out.last() != Some(&p) {
-                out.push(p);
-            }
-        }
-        out
+        self.0.points().copied().collect()
     }
 
     /// The newest point, if any.
     pub fn newest(&self) -> Option<PathPoint> {
-        self.newest
+        self.0.newest()
     }
 
     /// Forgets every point (a robot that restarted begins a new path).
     pub fn clear(&mut self) {
-        *self = DecimatedPath::new();
+        self.0.clear();
     }
 }
 
