@@ -272,14 +272,9 @@ impl TelemetryRecorder {
             self.map_rows_refused += 1;
             return;
         };
-        let width = usize::from(h.width);
-        let start = usize::from(r.first_row) * width + usize::from(r.first_column);
         let cells = r.cells.as_slice();
-        let slot = start
-            .checked_add(cells.len())
-            .and_then(|end| self.cells.get_mut(start..end));
-        match slot {
-            Some(slot) if usize::from(r.first_column) < width => {
+        match r.slot_in(&mut self.cells, usize::from(h.width)) {
+            Some(slot) => {
                 let scale = h.scale();
                 let was = slot.iter().filter(|&&c| known(scale, c)).count();
                 let now = cells.iter().filter(|&&c| known(scale, c)).count();

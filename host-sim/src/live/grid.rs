@@ -58,16 +58,8 @@ impl LatestMap {
     /// Places a chunk of cells; one outside the grid, or before any `Hello`, is dropped.
     pub fn rows(&mut self, r: &MapRows) {
         let Some(h) = self.hello else { return };
-        let width = usize::from(h.width);
-        if usize::from(r.first_column) >= width {
-            return;
-        }
-        let start = usize::from(r.first_row) * width + usize::from(r.first_column);
         let cells = r.cells.as_slice();
-        let slot = start
-            .checked_add(cells.len())
-            .and_then(|end| self.cells.get_mut(start..end));
-        if let Some(slot) = slot {
+        if let Some(slot) = r.slot_in(&mut self.cells, usize::from(h.width)) {
             if slot != cells {
                 slot.copy_from_slice(cells);
                 self.changed = true;

@@ -118,14 +118,8 @@ impl PageState {
             self.map_rows_refused += 1;
             return;
         };
-        let width = usize::from(h.width);
-        let start = usize::from(r.first_row) * width + usize::from(r.first_column);
-        let cells = r.cells.as_slice();
-        let slot = start
-            .checked_add(cells.len())
-            .and_then(|end| self.cells.get_mut(start..end));
-        match slot {
-            Some(slot) if usize::from(r.first_column) < width => slot.copy_from_slice(cells),
+        match r.slot_in(&mut self.cells, usize::from(h.width)) {
+            Some(slot) => slot.copy_from_slice(r.cells.as_slice()),
             _ => self.map_rows_refused += 1,
         }
     }

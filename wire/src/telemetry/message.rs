@@ -217,6 +217,22 @@ pub struct MapRows {
     pub cells: CellChunk,
 }
 
+impl MapRows {
+    /// The cells this chunk covers in a row-major grid `width` cells wide, held in
+    /// `grid`; `None` when its first column is off the grid or the chunk runs past the
+    /// grid's end (a receiver drops such a chunk rather than guess).
+    pub fn slot_in<'a>(&self, grid: &'a mut [i8], width: usize) -> Option<&'a mut [i8]> {
+        if usize::from(self.first_column) >= width {
+            return None;
+        }
+        let start = usize::from(self.first_row)
+            .checked_mul(width)?
+            .checked_add(usize::from(self.first_column))?;
+        let end = start.checked_add(self.cells.len())?;
+        grid.get_mut(start..end)
+    }
+}
+
 /// Up to [`MAX_CHUNK_CELLS`] cells, in cell units: postcard lays it out as a varint count
 /// and one `i8` each, and refuses a count past the capacity.
 pub type CellChunk = heapless::Vec<i8, MAX_CHUNK_CELLS, u8>;
@@ -237,4 +253,39 @@ pub enum Message {
     Filter(FilterState),
     /// One tick's raw inputs (variant 5), when the schedule sends them.
     Inputs(Inputs),
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rows(first_row: u16, first_column: u16, n: usize) -> MapRows {
+        let mut cells = CellChunk::new();
+        for i in 0..n {
+            let _ = cells.push(i as i8);
+        }
+        MapRows {
+            first_row,
+            first_column,
+            cells,
+        }
+    }
+
+    #[test]
+    fn a_chunk_lands_where_its_row_and_column_say_or_nowhere() {
+        let mut grid = [0i8; 12];
+        // Row 1, column 2 of a 4-wide grid is cell 6; three cells run on into row 2.
+        let slot = rows(1, 2, 3).slot_in(&mut grid, 4).map(|s| s.len());
+        assert_eq!(slot, Some(3));
+        if let Some(slot) = rows(1, 2, 3).slot_in(&mut grid, 4) {
+            slot.copy_from_slice(&[7, 8, 9]);
+        }
+        assert_eq!(grid, [0, 0, 0, 0, 0, 0, 7, 8, 9, 0, 0, 0]);
+        // A first column off the grid, or a run past its end, lands nowhere.
+        assert!(rows(0, 4, 1).slot_in(&mut grid, 4).is_none());
+        assert!(rows(2, 2, 3).slot_in(&mut grid, 4).is_none());
+        assert!(rows(u16::MAX, 0, 1).slot_in(&mut grid, 4).is_none());
+        // The last cell exactly.
+        assert!(rows(2, 3, 1).slot_in(&mut grid, 4).is_some());
+    }
 }
