@@ -42,6 +42,7 @@
 pub mod bounded;
 pub mod consistency;
 pub mod decimated;
+pub mod floor;
 pub mod live;
 pub mod page;
 pub mod picture;

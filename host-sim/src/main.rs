@@ -498,11 +498,12 @@ fn print_summary(name: &str, mode: PoseMode, seed: u64, f: &Figures) {
         f.duration_s
     );
     say!(
-        "free {}  occupied {}  out of place {}  known {:.1} %",
+        "free {}  occupied {}  out of place {}  known {:.1} % of the floor ({:.1} % of the grid)",
         f.free,
         f.occupied,
         f.out_of_place,
-        f.known_pct
+        f.known_pct,
+        f.known_grid_pct
     );
     match f.first_fix_s {
         Some(t) => say!(

@@ -234,12 +234,15 @@ fn grid_extent(record: &RunRecord) -> Option<(f64, f64, f64, f64, f64)> {
     Some((ox, oy, x1, y1, cell))
 }
 
-/// Everything that should be in view: grid, walls, tags and both paths.
+/// Everything that should be in view: the world (walls and tags) and both paths, or the
+/// grid when the world is not known. A grid larger than its world is cut to it.
 fn map_extent(record: &RunRecord) -> (Range<f64>, Range<f64>) {
     let mut pts: Vec<(f64, f64)> = Vec::new();
-    if let Some((x0, y0, x1, y1, _)) = grid_extent(record) {
-        pts.push((x0, y0));
-        pts.push((x1, y1));
+    if record.world.walls.is_empty() {
+        if let Some((x0, y0, x1, y1, _)) = grid_extent(record) {
+            pts.push((x0, y0));
+            pts.push((x1, y1));
+        }
     }
     for (a, b) in &record.world.walls {
         pts.extend(tame_point(*a));
@@ -1269,6 +1272,28 @@ mod tests {
         record.ticks.iter_mut().for_each(|t| t.belief = None);
         chart_png(&record, &chart).expect("chart");
         assert_eq!(decode(&chart).1, CHART_SIZE.1);
+        clean_up(&dir);
+    }
+
+    #[test]
+    fn a_grid_larger_than_its_world_is_framed_to_the_world() {
+        let dir = temp_dir("framed");
+        let mut record = synthetic();
+        const BIG: usize = 206;
+        record.map.width = BIG;
+        record.map.height = BIG;
+        record.map.origin_x_mm = -3000.0;
+        record.map.origin_y_mm = -3000.0;
+        record.map.cells = vec![CellBelief::Free; BIG * BIG];
+        record.map.out_of_place = vec![false; BIG * BIG];
+        // The walls span 100-2200 mm: a small margin round them, not the grid's 10 m.
+        let g = draw_map(&record, &dir.join("world.png")).expect("map");
+        assert!(g.x.start > -500.0 && g.x.end < 3000.0, "{:?}", g.x);
+        assert!(g.y.start > -500.0 && g.y.end < 3000.0, "{:?}", g.y);
+        // With no world known (a robot's stream), the grid is the frame.
+        record.world = WorldOutline::default();
+        let g = draw_map(&record, &dir.join("grid.png")).expect("map");
+        assert!(g.x.start <= -3000.0 && g.x.end >= 7300.0, "{:?}", g.x);
         clean_up(&dir);
     }
 

@@ -1,6 +1,7 @@
 //! One run of a scenario: the robot drives its route and the core maps, tick by tick.
 
 use crate::consistency::{estimator_figures, EstimatorFigures};
+use crate::floor::floor_mask;
 use crate::record::{
     Belief, CellBelief, MapSnapshot, RunRecord, TickRecord, TrueCalibration, WorldOutline,
 };
@@ -12,7 +13,7 @@ use crate::telemetry::TelemetryWriter;
 use serde::Serialize;
 use slam_core::{
     Angle, CameraConfig, DepthConfig, FixOutcome, GridGeometry, GridMap, KnownTag, Localiser,
-    MatchingConfig, OdometryConfig, Pose, SensorFrame, Slam, SlamConfig, TagMap,
+    MatchingConfig, Occupancy, OdometryConfig, Pose, SensorFrame, Slam, SlamConfig, TagMap,
 };
 use std::fmt;
 use std::str::FromStr;
@@ -133,8 +134,12 @@ pub struct Figures {
     pub ticks: usize,
     /// Simulated seconds.
     pub duration_s: f64,
-    /// Share of the grid the map has an opinion about, percent.
+    /// Share of the world's floor (see [`crate::floor`]) the map has an opinion about,
+    /// percent.
     pub known_pct: f64,
+    /// Share of the whole grid the map has an opinion about, percent: the seed page's
+    /// "known %", which counts the margin round the mat too.
+    pub known_grid_pct: f64,
     /// Cells believed free.
     pub free: u32,
     /// Cells believed occupied.
@@ -374,6 +379,8 @@ fn run_sized<const W: usize, const H: usize>(
     let start = to_core_pose(&robot.truth());
     let mut slam: Box<Slam<W, H>> = Box::new(Slam::new(config, start).map_err(RunError::Config)?);
     let real = real_mask(robot.world(), &config.geometry, W, H);
+    let floor = floor_mask(robot.world(), &config.geometry, W, H);
+    let floor_cells = FloorCells::new(&floor, W);
 
     let mut route = Route::new(&scenario.route);
     route.start(robot.truth());
@@ -419,12 +426,11 @@ fn run_sized<const W: usize, const H: usize>(
         if ticks.len().is_multiple_of(10) {
             out_of_place_pct = count_map(slam.map(), &real).out_of_place_pct();
         }
-        let counts = slam.map().counts();
         let mut tick = TickRecord::estimated(
             ticks.len() as f64 * TICK_S,
             (est.x_um as f64 / 1000.0, est.y_um as f64 / 1000.0),
             est.heading.to_microdegrees() as f64 / 1e6,
-            100.0 * (counts.free + counts.occupied) as f64 / (W * H) as f64,
+            floor_cells.known_pct(slam.map()),
             fix_taken,
         );
         tick.set_truth((truth.x_mm, truth.y_mm), truth.heading_deg);
@@ -442,7 +448,7 @@ fn run_sized<const W: usize, const H: usize>(
     if let Some(t) = telemetry {
         t.finish(slam.map());
     }
-    let final_counts = count_map(slam.map(), &real);
+    let final_counts = map_counts(beliefs(slam.map()), &real, &floor);
     if let Some(last) = ticks.last_mut() {
         last.out_of_place_pct = final_counts.out_of_place_pct();
     }
@@ -453,6 +459,7 @@ fn run_sized<const W: usize, const H: usize>(
         ticks: ticks.len(),
         duration_s: ticks.len() as f64 * TICK_S,
         known_pct: final_counts.known_pct(),
+        known_grid_pct: final_counts.known_grid_pct(),
         free: final_counts.free,
         occupied: final_counts.occupied,
         out_of_place: final_counts.out_of_place,
@@ -511,7 +518,42 @@ fn beliefs<const W: usize, const H: usize>(
 }
 
 fn count_map<const W: usize, const H: usize>(map: &GridMap<W, H>, real: &[bool]) -> MapCounts {
-    map_counts(beliefs(map), real)
+    map_counts(beliefs(map), real, &[])
+}
+
+/// The floor's cells, for a known share every tick at the cost of the floor alone.
+enum FloorCells {
+    /// The whole grid: the map's own counts give it.
+    Grid,
+    /// Column and row of each floor cell.
+    Cells(Vec<(i32, i32)>),
+}
+
+impl FloorCells {
+    fn new(floor: &[bool], width: usize) -> FloorCells {
+        if floor.iter().all(|&f| f) {
+            return FloorCells::Grid;
+        }
+        let at = |i: usize| ((i % width) as i32, (i / width) as i32);
+        FloorCells::Cells((0..floor.len()).filter(|&i| floor[i]).map(at).collect())
+    }
+
+    /// Share of the floor `map` holds a firm belief about, percent.
+    fn known_pct<const W: usize, const H: usize>(&self, map: &GridMap<W, H>) -> f64 {
+        match self {
+            FloorCells::Grid => {
+                let counts = map.counts();
+                100.0 * (counts.free + counts.occupied) as f64 / (W * H) as f64
+            }
+            FloorCells::Cells(cells) => {
+                let known = cells
+                    .iter()
+                    .filter(|&&(c, r)| map.occupancy(c, r) != Occupancy::Unknown)
+                    .count();
+                100.0 * known as f64 / cells.len().max(1) as f64
+            }
+        }
+    }
 }
 
 fn snapshot<const W: usize, const H: usize>(map: &GridMap<W, H>, real: &[bool]) -> MapSnapshot {

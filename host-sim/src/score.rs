@@ -56,6 +56,10 @@ pub fn pose_errors(ticks: &[TickRecord]) -> PoseErrors {
 pub struct MapCounts {
     /// Cells in the grid.
     pub cells: u32,
+    /// Cells of the world's floor (every cell when the floor is not known).
+    pub floor: u32,
+    /// Floor cells believed free or occupied.
+    pub floor_known: u32,
     /// Cells believed free.
     pub free: u32,
     /// Cells believed occupied.
@@ -65,8 +69,13 @@ pub struct MapCounts {
 }
 
 impl MapCounts {
-    /// Share of the grid with a firm belief, percent.
+    /// Share of the floor with a firm belief, percent.
     pub fn known_pct(&self) -> f64 {
+        100.0 * f64::from(self.floor_known) / f64::from(self.floor.max(1))
+    }
+
+    /// Share of the whole grid with a firm belief, percent: the seed page's measure.
+    pub fn known_grid_pct(&self) -> f64 {
         100.0 * f64::from(self.free + self.occupied) / f64::from(self.cells.max(1))
     }
 
@@ -76,13 +85,22 @@ impl MapCounts {
     }
 }
 
-/// Counts a map's beliefs, row-major as [`real_mask`] lays them out. A cell with no entry
-/// in `real` counts as real, so an empty `real` (the world unknown) puts nothing out of
-/// place.
-pub fn map_counts(cells: impl IntoIterator<Item = CellBelief>, real: &[bool]) -> MapCounts {
+/// Counts a map's beliefs, row-major as [`real_mask`] and [`crate::floor::floor_mask`]
+/// lay them out. A cell with no entry in `real` counts as real, so an empty `real` (the
+/// world unknown) puts nothing out of place; a cell with no entry in `floor` counts as
+/// floor, so an empty `floor` makes the whole grid the floor.
+pub fn map_counts(
+    cells: impl IntoIterator<Item = CellBelief>,
+    real: &[bool],
+    floor: &[bool],
+) -> MapCounts {
     let mut m = MapCounts::default();
     for (i, cell) in cells.into_iter().enumerate() {
         m.cells += 1;
+        if floor.get(i).copied().unwrap_or(true) {
+            m.floor += 1;
+            m.floor_known += u32::from(cell != CellBelief::Unknown);
+        }
         match cell {
             CellBelief::Free => m.free += 1,
             CellBelief::Occupied => {
@@ -180,11 +198,17 @@ mod tests {
         use CellBelief::{Free, Occupied, Unknown};
         let cells = [Free, Occupied, Occupied, Unknown];
         let real = [true, true, false, false];
-        let m = map_counts(cells, &real);
-        assert_eq!((m.cells, m.free, m.occupied, m.out_of_place), (4, 1, 2, 1));
+        let m = map_counts(cells, &real, &[]);
+        assert_eq!((m.floor, m.free, m.occupied, m.out_of_place), (4, 1, 2, 1));
         assert!((m.known_pct() - 75.0).abs() < 1e-9);
         assert!((m.out_of_place_pct() - 50.0).abs() < 1e-9);
-        assert_eq!(map_counts(cells, &[]).out_of_place, 0);
+        assert_eq!(map_counts(cells, &[], &[]).out_of_place, 0);
+        // Known is a share of the floor: the unknown cell is off it here.
+        let floor = [true, true, true, false];
+        let m = map_counts(cells, &real, &floor);
+        assert_eq!((m.floor, m.floor_known, m.free), (3, 3, 1));
+        assert!((m.known_pct() - 100.0).abs() < 1e-9);
+        assert!((m.known_grid_pct() - 75.0).abs() < 1e-9);
         assert_eq!(
             out_of_place_mask(&cells, &real),
             [false, false, true, false]

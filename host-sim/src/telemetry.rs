@@ -14,6 +14,7 @@
 //! by the same code ([`crate::score`]).
 
 use crate::consistency::{estimator_figures, EstimatorFigures};
+use crate::floor::floor_mask;
 use crate::record::{
     Belief, CellBelief, MapSnapshot, RunRecord, TickRecord, TrueCalibration, WorldOutline,
 };
@@ -124,15 +125,30 @@ fn push(bytes: &mut Vec<u8>, errors: &mut u32, message: &Message) {
 /// corrupted or hostile stream: 65535 x 65535 would be 4 GB) is refused and counted.
 pub const MAX_GRID_SIDE: u16 = 1024;
 
+/// Where a `Hello`'s grid lies on the world.
+fn geometry(h: &Hello) -> GridGeometry {
+    GridGeometry {
+        cell_mm: h.cell_mm,
+        origin_x_mm: h.origin_x_mm,
+        origin_y_mm: h.origin_y_mm,
+    }
+}
+
 /// Builds a run's record from a robot's messages.
 #[derive(Clone, Debug, Default)]
 pub struct TelemetryRecorder {
     hello: Option<Hello>,
     /// The latest cell bytes, `width * height`, row-major from the lowest row.
     cells: Vec<i8>,
-    /// How many of `cells` the latest `Hello`'s scale calls free or occupied, kept up to
-    /// date chunk by chunk so that a tick costs what it changed, not the whole map.
+    /// How many of `cells` on the floor the latest `Hello`'s scale calls free or
+    /// occupied, kept up to date chunk by chunk so that a tick costs what it changed, not
+    /// the whole map.
     known_cells: usize,
+    /// Which of `cells` are the world's floor ([`floor_mask`]); empty (every cell) without
+    /// a world.
+    floor: Vec<bool>,
+    /// How many of `cells` are floor.
+    floor_cells: usize,
     ticks: Vec<TickRecord>,
     last_tick: Option<Tick>,
     health: Option<SensorHealth>,
@@ -230,11 +246,25 @@ impl TelemetryRecorder {
         }
         let same_scale = self.hello.is_some_and(|old| old.scale() == h.scale());
         self.hello = Some(*h);
+        if !same_grid {
+            self.floor = match &self.world {
+                Some(world) => floor_mask(world, &geometry(h), h.width.into(), h.height.into()),
+                None => Vec::new(),
+            };
+            self.floor_cells = (0..self.cells.len()).filter(|&i| self.on_floor(i)).count();
+        }
         if !(same_grid && same_scale) {
             // New thresholds classify every cell anew: once per such Hello.
             let scale = h.scale();
-            self.known_cells = self.cells.iter().filter(|&&c| known(scale, c)).count();
+            self.known_cells = (0..self.cells.len())
+                .filter(|&i| self.on_floor(i) && known(scale, self.cells[i]))
+                .count();
         }
+    }
+
+    /// Whether cell `i` of the latest grid is floor.
+    fn on_floor(&self, i: usize) -> bool {
+        self.floor.get(i).copied().unwrap_or(true)
     }
 
     fn take_tick(&mut self, t: &Tick) {
@@ -245,7 +275,7 @@ impl TelemetryRecorder {
         let pose = t.pose();
         let known_pct = match self.hello {
             Some(_) if !self.cells.is_empty() => {
-                100.0 * self.known_cells as f64 / self.cells.len() as f64
+                100.0 * self.known_cells as f64 / self.floor_cells.max(1) as f64
             }
             _ => f64::NAN,
         };
@@ -273,12 +303,20 @@ impl TelemetryRecorder {
             return;
         };
         let cells = r.cells.as_slice();
-        match r.slot_in(&mut self.cells, usize::from(h.width)) {
+        let width = usize::from(h.width);
+        // Where the chunk starts, when `slot_in` places it.
+        let start = usize::from(r.first_row) * width + usize::from(r.first_column);
+        let floor = &self.floor;
+        match r.slot_in(&mut self.cells, width) {
             Some(slot) => {
                 let scale = h.scale();
-                let was = slot.iter().filter(|&&c| known(scale, c)).count();
-                let now = cells.iter().filter(|&&c| known(scale, c)).count();
-                self.known_cells = self.known_cells - was + now;
+                let on_floor = |k: usize| floor.get(start + k).copied().unwrap_or(true);
+                let count = |c: &[i8]| {
+                    (c.iter().enumerate())
+                        .filter(|&(k, &c)| on_floor(k) && known(scale, c))
+                        .count()
+                };
+                self.known_cells = self.known_cells - count(slot) + count(cells);
                 slot.copy_from_slice(cells);
                 self.map_rows += 1;
             }
@@ -325,12 +363,7 @@ impl TelemetryRecorder {
     fn real_mask(&self) -> Vec<bool> {
         match (&self.world, self.hello) {
             (Some(world), Some(h)) => {
-                let geometry = GridGeometry {
-                    cell_mm: h.cell_mm,
-                    origin_x_mm: h.origin_x_mm,
-                    origin_y_mm: h.origin_y_mm,
-                };
-                real_mask(world, &geometry, h.width.into(), h.height.into())
+                real_mask(world, &geometry(&h), h.width.into(), h.height.into())
             }
             _ => Vec::new(),
         }
@@ -353,7 +386,8 @@ impl TelemetryRecorder {
         // With the world known, the final map's share out of place, as `run` gives its last
         // tick (the viewer scores only the map it ends with, so earlier ticks stay unknown).
         if let (Some(_), Some(last)) = (&self.world, ticks.last_mut()) {
-            last.out_of_place_pct = map_counts(cells.iter().copied(), &real).out_of_place_pct();
+            last.out_of_place_pct =
+                map_counts(cells.iter().copied(), &real, &self.floor).out_of_place_pct();
         }
         RunRecord {
             scenario: name.to_string(),
@@ -378,7 +412,7 @@ impl TelemetryRecorder {
 
     /// What came in, for the summary; `stats` are the decoder's counts.
     pub fn summary(&self, stats: &DecoderStats) -> Summary {
-        let map = map_counts(self.beliefs(), &self.real_mask());
+        let map = map_counts(self.beliefs(), &self.real_mask(), &self.floor);
         Summary {
             ticks: self.ticks.len(),
             duration_s: self.ticks.last().map_or(0.0, |t| t.t_s),
@@ -508,7 +542,8 @@ pub struct Summary {
     pub free: usize,
     /// Cells believed occupied in the latest map.
     pub occupied: usize,
-    /// Share of the grid with a firm belief in the latest map, percent.
+    /// Share of the world's floor (the whole grid without a world) with a firm belief in
+    /// the latest map, percent.
     pub known_pct: f64,
     /// Occupied cells on no real wall or tag; with the world only.
     pub out_of_place: Option<u32>,

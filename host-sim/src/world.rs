@@ -65,6 +65,8 @@ pub struct World {
     walls: Vec<Wall>,
     tags: Vec<TagSite>,
     wall_tolerance_mm: f64,
+    /// Where the robot starts: the floor is what it can reach from there.
+    start: Vec2,
 }
 
 impl World {
@@ -95,6 +97,7 @@ impl World {
             walls,
             tags,
             wall_tolerance_mm: scenario.world.wall_tolerance_mm,
+            start: Vec2::new(scenario.start.x_mm, scenario.start.y_mm),
         }
     }
 
@@ -106,6 +109,11 @@ impl World {
     /// The tags.
     pub fn tags(&self) -> &[TagSite] {
         &self.tags
+    }
+
+    /// Where the robot starts.
+    pub fn start(&self) -> Vec2 {
+        self.start
     }
 
     /// Distance along a ray from `origin` in unit direction `dir` to the first thing it hits.
