@@ -6,6 +6,7 @@
 
 use clap::builder::{PossibleValuesParser, TypedValueParser};
 use clap::{Args, Parser, Subcommand, ValueHint};
+use host_sim::fault::Fault;
 use host_sim::live::pace::SPEED_RANGE;
 use host_sim::run::PoseMode;
 use std::path::PathBuf;
@@ -49,6 +50,9 @@ pub enum Command {
     Serve(ServeArgs),
     /// Simulated seconds per wall second on a route, and host nanoseconds per `step`.
     Bench(BenchArgs),
+    /// The fault matrix: each sensor failing each way for a stretch of the route, on
+    /// several seeds, beside the same runs without the fault.
+    Faults(FaultsArgs),
 }
 
 /// `host-sim run`.
@@ -78,6 +82,11 @@ pub struct RunArgs {
     /// Write the final map as a ROS map_server pair, DIR/map.pgm and DIR/map.yaml.
     #[arg(long, value_name = "DIR", value_hint = ValueHint::DirPath)]
     pub export_map: Option<PathBuf>,
+    /// Make a sensor fail: SENSOR-KIND@START[/DURATION] in seconds, e.g. gyro-stuck@5/3
+    /// (sensors depth, flow, gyro, camera; kinds off, stuck, garbage, wrong, slow,
+    /// intermittent; without a duration, for good). May be given more than once.
+    #[arg(long, value_name = "FAULT")]
+    pub fault: Vec<Fault>,
     /// Watching the run live, and recording it for Foxglove.
     #[command(flatten)]
     pub live: LiveArgs,
@@ -209,6 +218,42 @@ pub struct BenchArgs {
     #[arg(value_name = "SCENARIO", value_hint = ValueHint::FilePath,
           default_value = "host-sim/scenarios/seed-mat.toml")]
     pub scenario: PathBuf,
+}
+
+/// `host-sim faults`.
+#[derive(Debug, Args)]
+pub struct FaultsArgs {
+    /// The scenario to run.
+    #[arg(value_name = "SCENARIO", value_hint = ValueHint::FilePath,
+          default_value = "host-sim/scenarios/seed-mat.toml")]
+    pub scenario: PathBuf,
+    /// Which pose the mapper uses (as `run --pose`); the firmware flies `filter`.
+    #[arg(long, value_name = "MODE", default_value = "filter", value_parser = pose_mode())]
+    pub pose: PoseMode,
+    /// Run seeds 1 to N.
+    #[arg(long, value_name = "N", default_value_t = 20,
+          value_parser = clap::value_parser!(u64).range(1..=1000))]
+    pub seeds: u64,
+    /// When each fault starts, seconds into the route.
+    #[arg(long, value_name = "S", default_value_t = 5.0, value_parser = fault_seconds)]
+    pub start: f64,
+    /// How long each fault lasts, seconds.
+    #[arg(long, value_name = "S", default_value_t = 3.0, value_parser = fault_seconds)]
+    pub duration: f64,
+    /// Only this case, SENSOR-KIND (e.g. gyro-off).
+    #[arg(long, value_name = "CASE")]
+    pub case: Option<String>,
+    /// Print the figures as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `faults --start` and `--duration`: finite seconds within an hour.
+fn fault_seconds(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(s) if s.is_finite() && (0.0..=3600.0).contains(&s) => Ok(s),
+        _ => Err("wants seconds from 0 to 3600".to_string()),
+    }
 }
 
 /// `--pose`: the six names, listed in `--help` and in the error for any other.

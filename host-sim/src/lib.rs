@@ -42,6 +42,8 @@
 pub mod bounded;
 pub mod consistency;
 pub mod decimated;
+pub mod fault;
+pub mod fault_matrix;
 pub mod floor;
 pub mod live;
 pub mod page;

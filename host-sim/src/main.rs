@@ -24,7 +24,10 @@
 mod cli;
 
 use clap::Parser;
-use cli::{BenchArgs, Cli, Command, LiveArgs, ReplayArgs, RunArgs, ServeArgs, ViewArgs};
+use cli::{
+    BenchArgs, Cli, Command, FaultsArgs, LiveArgs, ReplayArgs, RunArgs, ServeArgs, ViewArgs,
+};
+use host_sim::fault_matrix::{run_matrix, table, Window};
 use host_sim::live::foxglove::{FoxgloveSink, Outputs};
 use host_sim::live::log::FirmwareLog;
 use host_sim::live::pace::Pace;
@@ -32,7 +35,7 @@ use host_sim::live::scene::Stage;
 use host_sim::live::{Feed, LiveSink};
 use host_sim::page::PageServer;
 use host_sim::record::{TrueCalibration, WorldOutline};
-use host_sim::run::{run, run_with_telemetry, Figures, PoseMode};
+use host_sim::run::{run, run_with, Figures, PoseMode, RunOptions, TICK_S};
 use host_sim::telemetry::estimator_line;
 use host_sim::telemetry::{Recording, TelemetryWriter};
 use host_sim::truth::{parse_truth, TruthSample};
@@ -72,6 +75,7 @@ fn main() -> ExitCode {
         Command::Replay(args) => cmd_replay(args),
         Command::Serve(args) => cmd_serve(args),
         Command::Bench(args) => cmd_bench(args),
+        Command::Faults(args) => cmd_faults(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -103,7 +107,12 @@ fn cmd_run(args: RunArgs) -> Result<(), Failure> {
     } else {
         None
     };
-    let output = run_with_telemetry(&scenario, args.pose, seed, writer.as_mut())
+    let options = RunOptions {
+        telemetry: writer.as_mut(),
+        faults: &args.fault,
+        ..RunOptions::default()
+    };
+    let output = run_with(&scenario, args.pose, seed, options)
         .map_err(|e| Failure(2, format!("{}: {e}", args.scenario.display())))?;
     if let (Some(path), Some(writer)) = (&args.telemetry, &writer) {
         std::fs::write(path, writer.bytes())
@@ -538,6 +547,40 @@ fn cmd_serve(args: ServeArgs) -> Result<(), Failure> {
 }
 
 /// Simulated seconds per wall second on the seed route, and host nanoseconds per `step`.
+fn cmd_faults(args: FaultsArgs) -> Result<(), Failure> {
+    let scenario = load(&args.scenario)?;
+    let seeds: Vec<u64> = (1..=args.seeds).collect();
+    let window = Window {
+        start_s: args.start,
+        duration_s: args.duration.max(TICK_S),
+    };
+    let cases = run_matrix(&scenario, args.pose, &seeds, window, args.case.as_deref())
+        .map_err(|e| Failure(2, format!("{}: {e}", args.scenario.display())))?;
+    if cases.is_empty() {
+        return Err(Failure(
+            2,
+            "no such case: want SENSOR-KIND, e.g. gyro-off (sensors depth, flow, gyro, camera; kinds off, stuck, garbage, wrong, slow, intermittent)".into(),
+        ));
+    }
+    if args.json {
+        let json = serde_json::to_string(&cases).map_err(|e| Failure(1, e.to_string()))?;
+        say!("{json}");
+    } else {
+        say!(
+            "{}, pose {}, seeds 1-{}, each fault from {} s for {} s:",
+            scenario.name,
+            args.pose.name(),
+            args.seeds,
+            window.start_s,
+            window.duration_s
+        );
+        say!("{}", table(&cases));
+        let met = cases.iter().filter(|c| c.meets_targets()).count();
+        say!("{met} of {} cases meet the targets", cases.len());
+    }
+    Ok(())
+}
+
 fn cmd_bench(args: BenchArgs) -> Result<(), Failure> {
     let scenario = load(&args.scenario)?;
     let runs = 20;

@@ -1,6 +1,7 @@
 //! One run of a scenario: the robot drives its route and the core maps, tick by tick.
 
 use crate::consistency::{estimator_figures, EstimatorFigures};
+use crate::fault::{Fault, Injector};
 use crate::floor::floor_mask;
 use crate::record::{
     Belief, CellBelief, MapSnapshot, RunRecord, TickRecord, TrueCalibration, WorldOutline,
@@ -312,7 +313,11 @@ pub fn run_with_telemetry(
     seed: u64,
     telemetry: Option<&mut TelemetryWriter>,
 ) -> Result<RunOutput, RunError> {
-    run_sized_to_fit(scenario, mode, seed, TagAge::Reported, telemetry)
+    let options = RunOptions {
+        telemetry,
+        ..RunOptions::default()
+    };
+    run_with(scenario, mode, seed, options)
 }
 
 /// [`run`], telling the core the pictures' age as `tag_age` says.
@@ -322,7 +327,32 @@ pub fn run_with_tag_age(
     seed: u64,
     tag_age: TagAge,
 ) -> Result<RunOutput, RunError> {
-    run_sized_to_fit(scenario, mode, seed, tag_age, None)
+    let options = RunOptions {
+        tag_age,
+        ..RunOptions::default()
+    };
+    run_with(scenario, mode, seed, options)
+}
+
+/// What a run may add to its scenario.
+#[derive(Default)]
+pub struct RunOptions<'a> {
+    /// How the core is told the pictures' age.
+    pub tag_age: TagAge,
+    /// Where to write the telemetry stream the robot would send.
+    pub telemetry: Option<&'a mut TelemetryWriter>,
+    /// Sensor faults to inject into what the core reads.
+    pub faults: &'a [Fault],
+}
+
+/// [`run`] with `options`.
+pub fn run_with(
+    scenario: &Scenario,
+    mode: PoseMode,
+    seed: u64,
+    options: RunOptions<'_>,
+) -> Result<RunOutput, RunError> {
+    run_sized_to_fit(scenario, mode, seed, options)
 }
 
 /// Runs on the smallest built-in grid that holds the scenario's world.
@@ -330,8 +360,7 @@ fn run_sized_to_fit(
     scenario: &Scenario,
     mode: PoseMode,
     seed: u64,
-    tag_age: TagAge,
-    telemetry: Option<&mut TelemetryWriter>,
+    options: RunOptions<'_>,
 ) -> Result<RunOutput, RunError> {
     let planned_s = crate::route::planned_ticks(&scenario.route, TICK_S) as f64 * TICK_S;
     if planned_s > MAX_RUN_S {
@@ -354,9 +383,9 @@ fn run_sized_to_fit(
     }
     let fits = |side: usize| columns <= side as i64 && rows <= side as i64;
     if fits(GRID_SIDES[0]) {
-        run_sized::<{ GRID_SIDES[0] }, { GRID_SIDES[0] }>(scenario, mode, seed, tag_age, telemetry)
+        run_sized::<{ GRID_SIDES[0] }, { GRID_SIDES[0] }>(scenario, mode, seed, options)
     } else if fits(GRID_SIDES[1]) {
-        run_sized::<{ GRID_SIDES[1] }, { GRID_SIDES[1] }>(scenario, mode, seed, tag_age, telemetry)
+        run_sized::<{ GRID_SIDES[1] }, { GRID_SIDES[1] }>(scenario, mode, seed, options)
     } else {
         Err(RunError::GridTooLarge {
             columns,
@@ -370,9 +399,14 @@ fn run_sized<const W: usize, const H: usize>(
     scenario: &Scenario,
     mode: PoseMode,
     seed: u64,
-    tag_age: TagAge,
-    mut telemetry: Option<&mut TelemetryWriter>,
+    options: RunOptions<'_>,
 ) -> Result<RunOutput, RunError> {
+    let RunOptions {
+        tag_age,
+        mut telemetry,
+        faults,
+    } = options;
+    let mut injector = Injector::new(faults, seed);
     let mut config = slam_config(scenario);
     mode.configure(&mut config);
     let mut robot = Robot::new(scenario, seed);
@@ -401,7 +435,7 @@ fn run_sized<const W: usize, const H: usize>(
         }
         let truth = robot.truth();
         let (flow, gyro) = robot.take_odometry(MIN_FLOW_QUALITY);
-        let frame = SensorFrame {
+        let mut frame = SensorFrame {
             dt_us,
             flow,
             gyro,
@@ -412,6 +446,7 @@ fn run_sized<const W: usize, const H: usize>(
             tags_age_us,
             external_pose: (mode == PoseMode::Truth).then(|| to_core_pose(&truth)),
         };
+        injector.apply(robot.time_s(), &mut frame);
         let report = slam.step(&frame);
         if let Some(t) = telemetry.as_mut() {
             let time_ms = (ticks.len() as f64 * TICK_S * 1000.0).round() as u32;

@@ -404,3 +404,48 @@ fn a_route_longer_than_a_run_is_refused_before_it_runs() {
     let scenario = host_sim::Scenario::load(&seed_path()).expect("seed scenario loads");
     assert_eq!(host_sim::route::planned_ticks(&scenario.route, 0.1), 485);
 }
+
+#[test]
+fn a_fault_is_injected_or_its_error_names_what_is_wrong() {
+    let seed = seed_path();
+    let seed = seed.to_str().expect("utf-8 path");
+    for (bad, want) in [
+        ("lidar-off@1", "unknown sensor `lidar`"),
+        ("gyro-sideways@1", "unknown fault kind `sideways`"),
+        ("gyro-off@-1/2", "bad fault time"),
+        ("gyro-off", "SENSOR-KIND@START"),
+    ] {
+        let out = host_sim(&["run", seed, "--fault", bad]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{bad}: {err}");
+        assert!(
+            err.contains("--fault") && err.contains(want),
+            "{bad}: {err}"
+        );
+    }
+    // The gyro lost for the whole first turn: the run goes on, and its pose is lost.
+    let json = |args: &[&str]| -> serde_json::Value {
+        let out = host_sim(args);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_slice(&out.stdout).expect("json")
+    };
+    let healthy = json(&["run", seed, "--pose", "filter", "--json"]);
+    let faulty = json(&[
+        "run",
+        seed,
+        "--pose",
+        "filter",
+        "--json",
+        "--fault",
+        "gyro-off@1/8",
+    ]);
+    let heading = |v: &serde_json::Value| v["max_heading_error_deg"].as_f64().unwrap_or(f64::NAN);
+    assert!(
+        heading(&faulty) > heading(&healthy) + 10.0,
+        "{faulty} vs {healthy}"
+    );
+}
