@@ -29,7 +29,7 @@ import { USAGE, parseArgs } from './args.mjs';
 import { bootChip } from './chip.mjs';
 import { readElf, flashImage } from './elf.mjs';
 import { Faults, selfTests as faultTests } from './faults.mjs';
-import { patchI2c, patchSpiMode, patchUart, patchUsbDevice } from './patches.mjs';
+import { patchI2c, patchSpiMode, patchUart, patchUsbDevice, usbDeviceSelfTests } from './patches.mjs';
 import { profilersFromEnv, profileResult } from './profile.mjs';
 import { buildResult } from './result.mjs';
 import { RttDrain } from './rtt.mjs';
@@ -52,7 +52,12 @@ const DEPTH_LPN_PIN = 6;
 function main() {
   const args = parseArgs(process.argv.slice(2), REPO);
   if (args.help) return console.log(USAGE);
-  if (args.selfTest) return selfTest();
+  if (args.selfTest) {
+    return void selfTest().catch((e) => {
+      console.error(`harness: ${e.message}`);
+      process.exit(2);
+    });
+  }
   const say = (...m) => { if (!args.quiet) console.error('[harness]', ...m); };
 
   const elf = readElf(args.elf);
@@ -191,9 +196,10 @@ function attachDevices({ rp, later, clock, faults, world, advanceWorld }) {
 }
 
 /// Every module's self-tests, one line each; exits 1 if any failed.
-function selfTest() {
+async function selfTest() {
   let ok = true;
-  for (const [name, pass] of [...cameraTests(), ...faultTests(), ...usbTests()]) {
+  const usbDevice = await usbDeviceSelfTests();
+  for (const [name, pass] of [...cameraTests(), ...faultTests(), ...usbTests(), ...usbDevice]) {
     console.log(`${pass ? 'ok  ' : 'FAIL'} ${name}`);
     ok &&= pass;
   }

@@ -225,3 +225,48 @@ export function patchUsbDevice(rp) {
   };
   return bus;
 }
+
+/// `patchUsbDevice` on a bare chip, the firmware's register writes made by hand: a
+/// buffer is only used once armed, stays armed until a transaction uses it, and EP0
+/// STALLs only while EP_STALL_ARM is set.
+export async function usbDeviceSelfTests() {
+  const { RP2040 } = await import('./node_modules/rp2040js/dist/esm/rp2040.js');
+  const { SimulationClock } = await import('./node_modules/rp2040js/dist/esm/clock/simulation-clock.js');
+  const rp = new RP2040(new SimulationClock());
+  const bus = patchUsbDevice(rp);
+  const USB = 0x50110000, DPRAM = 0x50100000;
+  const attached = [];
+  bus.onAttach = (a) => attached.push(a);
+  const armed = [];
+  bus.onArmed = (ep, out) => armed.push(`${ep}${out ? 'out' : 'in'}`);
+  rp.writeUint32(USB + 0x40, 1); // MAIN_CTRL: controller on, device mode
+  rp.writeUint32(USB + 0x4c, 1 << 16); // SIE_CTRL: pull-up
+  const before = bus.transferIn(0, 0).status;
+  rp.writeUint32(DPRAM + 0x100, 0x04030201);
+  rp.writeUint32(DPRAM + 0x80, (1 << 15) | (1 << 13) | 3); // EP0 IN: FULL, DATA1, 3 bytes
+  const notYet = bus.transferIn(0, 0).status;
+  rp.writeUint32(DPRAM + 0x80, (1 << 15) | (1 << 13) | (1 << 10) | 3); // ... AVAILABLE
+  const taken = bus.transferIn(0, 0);
+  const again = bus.transferIn(0, 0).status;
+  const inDone = rp.usbCtrl.buffStatus & 1;
+  rp.writeUint32(DPRAM + 0x84, (1 << 10) | 64); // EP0 OUT armed for 64 bytes
+  const stillArmed = rp.readUint32(DPRAM + 0x84) & (1 << 10);
+  const wrongAddress = bus.transferOut(0, 5, Uint8Array.from([9])).status;
+  const given = bus.transferOut(0, 0, Uint8Array.from([7, 8])).status;
+  const outBc = rp.readUint32(DPRAM + 0x84);
+  rp.writeUint32(DPRAM + 0x80, 1 << 11); // EP0 IN STALL without EP_STALL_ARM
+  const unarmedStall = bus.transferIn(0, 0).status;
+  rp.writeUint32(USB + 0x68, 1); // EP_STALL_ARM EP0 IN
+  const stall = bus.transferIn(0, 0).status;
+  bus.setup(new Uint8Array(8), 0);
+  const afterSetup = bus.transferIn(0, 0).status;
+  return [
+    ['usb device: attach on the pull-up', attached.join() === 'true'],
+    ['usb device: NAK until a buffer is armed', before === 'nak' && notYet === 'nak'],
+    ['usb device: an armed IN buffer is taken once', taken.status === 'ack' && taken.data.join() === '1,2,3' && taken.pid === 1 && again === 'nak' && inDone === 1],
+    ['usb device: an OUT buffer stays armed until data comes', stillArmed !== 0 && armed.join() === '0in,0out'],
+    ['usb device: a token to another address is ignored', wrongAddress === 'timeout'],
+    ['usb device: OUT data fills the buffer', given === 'ack' && (outBc & 0x3ff) === 2 && outBc & (1 << 15) && !(outBc & (1 << 10)) && rp.usbDPRAM[0x100] === 7],
+    ['usb device: EP0 stalls only with EP_STALL_ARM, until the next SETUP', unarmedStall === 'nak' && stall === 'stall' && afterSetup === 'nak'],
+  ];
+}

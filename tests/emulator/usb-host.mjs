@@ -20,7 +20,7 @@ const RESET_RECOVERY_NS = 10e6;
 const SET_ADDRESS_RECOVERY_NS = 2e6;
 /// The gap between one control request and the next, ns.
 const REQUEST_GAP_NS = 100e3;
-/// How long after the attach the device must be configured and its port open.
+/// How long after the attach the device must be configured and its port open, simulated s.
 export const ENUMERATION_TIMEOUT_S = 1;
 /// The address the host gives the device.
 const DEVICE_ADDRESS = 1;
@@ -52,6 +52,7 @@ export class UsbHost {
     this.address = 0;
     this.attachedS = null;
     this.configuredS = null;
+    this.openS = null;
     this.device = null;
     this.configuration = null;
     this.strings = {};
@@ -72,13 +73,13 @@ export class UsbHost {
   /// The device pulled D+ up (or let go): debounce, then reset and enumerate.
   attach(attached) {
     if (!attached) {
-      if (!this.error && this.configuredS === null) this.fail('the device detached during enumeration');
+      if (!this.error && this.openS === null) this.fail('the device detached during enumeration');
       return;
     }
     if (this.attachedS !== null) return;
     this.attachedS = this.nowS();
     this.later(ENUMERATION_TIMEOUT_S * 1e9, () => {
-      if (this.configuredS === null && !this.error) this.fail(`not configured ${ENUMERATION_TIMEOUT_S} s after the attach: ${this.stuck()}`);
+      if (this.openS === null && !this.error) this.fail(`port not open ${ENUMERATION_TIMEOUT_S} s after the attach: ${this.stuck()}`);
     });
     this.later(DEBOUNCE_NS, () => {
       this.bus.reset();
@@ -88,10 +89,10 @@ export class UsbHost {
 
   /// The run ended: an enumeration still under way is named as it stands.
   endOfRun() {
-    if (this.error || this.configuredS !== null) return;
+    if (this.error || this.openS !== null) return;
     this.fail(this.attachedS === null
       ? 'the device never attached (SIE_CTRL.PULLUP_EN never set)'
-      : `not configured by the end of the run, ${(this.nowS() - this.attachedS).toFixed(3)} s after the attach: ${this.stuck()}`);
+      : `port not open by the end of the run, ${(this.nowS() - this.attachedS).toFixed(3)} s after the attach: ${this.stuck()}`);
   }
 
   /// Where enumeration stands, for an error.
@@ -289,6 +290,7 @@ export class UsbHost {
   openPort() {
     const cdc = this.cdc();
     this.bulkIn = cdc.bulk_in & 0x0f;
+    this.openS = this.nowS();
     this.say(`usb: enumerated and port open at ${this.nowS().toFixed(3)} s: ${describe(this.summary())}`);
     const read = () => this.transact(this.bulkIn, 0, null, (res) => {
       if (res.status === 'stall') return this.fail(`bulk IN EP${this.bulkIn} stalled`);
@@ -313,6 +315,7 @@ export class UsbHost {
     return {
       attached_s: this.attachedS,
       configured_s: this.configuredS,
+      port_open_s: this.openS,
       device: d && {
         vid_pid: `${hex(d.vid, 4)}:${hex(d.pid, 4)}`,
         usb: d.usb,

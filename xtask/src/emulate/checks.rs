@@ -184,9 +184,9 @@ fn usb_checks(f: &serde_json::Value) -> [(String, bool); 2] {
     let (host, u) = (&f["emulator"]["usb"], &f["usb"]);
     let text = |x: &serde_json::Value| x.as_str().unwrap_or("?").to_string();
     let enumerated = match host["error"].as_str() {
-        None if host["configured_s"].is_number() => (
+        None if host["port_open_s"].is_number() => (
             format!(
-                "USB enumerated: {} \"{}\", {} configured at {:.3} s after {} requests, port opened (DTR)",
+                "USB enumerated: {} \"{}\", {} configured at {:.3} s, port open (DTR) at {:.3} s after {} requests",
                 text(&host["device"]["vid_pid"]),
                 text(&host["device"]["product"]),
                 match host["cdc"]["bulk_in"].as_u64() {
@@ -194,6 +194,7 @@ fn usb_checks(f: &serde_json::Value) -> [(String, bool); 2] {
                     None => "no CDC ACM function,".into(),
                 },
                 host["configured_s"].as_f64().unwrap_or(f64::NAN),
+                host["port_open_s"].as_f64().unwrap_or(f64::NAN),
                 host["requests"].as_array().map_or(0, Vec::len),
             ),
             host["cdc"]["bulk_in"].is_u64(),
@@ -409,7 +410,7 @@ mod tests {
     #[test]
     fn the_usb_checks_name_the_stalled_request_and_the_difference() {
         let host = serde_json::json!({
-            "configured_s": 0.124, "error": null, "requests": ["a", "b"],
+            "configured_s": 0.124, "port_open_s": 0.125, "error": null, "requests": ["a", "b"],
             "device": { "vid_pid": "1209:0001", "product": "BugBot telemetry" },
             "cdc": { "bulk_in": 130 },
         });
@@ -424,8 +425,8 @@ mod tests {
             "{e}"
         );
         assert!(s_ok && s.contains("ticks 2 to 5"), "{s}");
-        let stalled = serde_json::json!({ "configured_s": null,
-            "error": "not configured 1 s after the attach: GET_DESCRIPTOR(Device, 64) waiting in its data IN stage" });
+        let stalled = serde_json::json!({ "configured_s": null, "port_open_s": null,
+            "error": "port not open 1 s after the attach: GET_DESCRIPTOR(Device, 64) waiting in its data IN stage" });
         let differs = serde_json::json!({ "same_run": false, "first_difference": "message 7: UART has Tick 4" });
         let f = serde_json::json!({ "emulator": { "usb": stalled }, "usb": differs });
         let [(e, e_ok), (s, s_ok)] = usb_checks(&f);

@@ -236,6 +236,9 @@ pub fn run(args: &EmulateArgs) -> Result<(), String> {
             println!("usb: {usb_json}");
         }
         println!("pictures and raw streams in {}", out_dir.display());
+        if !args.no_usb {
+            usb_stream::verdict(&emulator_json["usb"], &usb_json)?;
+        }
     }
     Ok(())
 }

@@ -297,6 +297,18 @@ pub fn check(uart: &Path, usb: &Path, lines: &[LogLine]) -> Result<serde_json::V
     Ok(c.to_json())
 }
 
+/// Fails, naming why, when the harness's host did not open the port (`host`: the
+/// harness's `usb` report) or the stream is not the UART's run (`usb`: [`check`]'s JSON).
+pub fn verdict(host: &serde_json::Value, usb: &serde_json::Value) -> Result<(), String> {
+    if let Some(e) = host["error"].as_str() {
+        return Err(format!("USB: {e}"));
+    }
+    match usb["first_difference"].as_str() {
+        Some(d) => Err(format!("USB stream: {d}")),
+        None => Ok(()),
+    }
+}
+
 impl Comparison {
     /// The comparison as JSON, for `cargo xtask emulate --json` and the checks.
     pub fn to_json(&self) -> serde_json::Value {
