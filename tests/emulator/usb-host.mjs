@@ -6,9 +6,10 @@
 // open. The chip's side of each transaction is `patchUsbDevice` (patches.mjs).
 //
 // Every transaction takes its time on the 12 Mbit/s bus; the host retries a NAKed
-// endpoint when the firmware next arms it. No SOFs are sent and the bus is never
-// suspended (the firmware does not use either). A request that does not finish names
-// itself and its stage in `error` (a STALL, a timeout, or no answer within
+// endpoint when the firmware next arms it. Start-of-frame packets are not modelled: the
+// host keeps the bus busy, so the device never sees it idle and never suspends (the
+// firmware's driver enables no SOF interrupt). A request that does not finish names itself
+// and its stage in `error` (a STALL, a timeout, or no answer within
 // `ENUMERATION_TIMEOUT_S` of the attach).
 
 /// Wait after the device attaches before the reset (USB 2.0 7.1.7.3, TATTDB), ns.
