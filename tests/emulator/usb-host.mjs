@@ -60,7 +60,6 @@ export class UsbHost {
     this.lineCoding = null;
     this.requests = [];
     this.error = null;
-    this.stalls = [];
     this.request = null;
     this.waiting = [new Map(), new Map()]; // per direction (0 IN, 1 OUT): ep -> handler
     this.stats = { packets: 0, bytes: 0, zero_length_packets: 0, naks: 0, toggle_errors: 0 };
@@ -121,7 +120,8 @@ export class UsbHost {
         return SET_ADDRESS_RECOVERY_NS;
       }),
       () => this.getDescriptor(DEVICE, 0, 0, 18, (d) => { this.device = parseDevice(d); }),
-      // A full-speed-only device STALLs this; a high-speed-capable one answers.
+      // USB 2.0 9.6.2 has a full-speed-only device STALL this; embassy-usb answers it.
+      // Either is taken, as Linux takes either.
       () => this.getDescriptor(DEVICE_QUALIFIER, 0, 0, 10, () => {}, { mayStall: true }),
       () => this.getDescriptor(CONFIGURATION, 0, 0, 9, (d) => { this.configuration = parseConfiguration(d); }),
       () => this.getDescriptor(CONFIGURATION, 0, 0, this.configuration.totalLength, (d) => { this.configuration = parseConfiguration(d); }),
@@ -192,7 +192,6 @@ export class UsbHost {
     };
     const stalled = (what) => {
       if (mayStall) {
-        this.stalls.push(name);
         this.request = null;
         this.requests.push(`${name}: STALL`);
         this.later(REQUEST_GAP_NS, () => this.next());
