@@ -5,7 +5,8 @@ import { parseFault } from './faults.mjs';
 
 export const USAGE = `usage: node harness.mjs --elf FW.elf [--bin FW.bin] [--scenario FILE] [--seconds N]
          [--seed N] [--host-sim BIN | --no-world] [--telemetry FILE] [--defmt FILE]
-         [--truth FILE] [--fault NAME@T+S[/D]]... [--max-wall S] [--json] [--quiet]
+         [--usb-telemetry FILE | --no-usb] [--truth FILE] [--fault NAME@T+S[/D]]...
+         [--max-wall S] [--json] [--quiet]
        node harness.mjs --self-test | --help`;
 
 /// Parses `argv` (without node and the script). `repo` is the workspace root, for the
@@ -20,6 +21,8 @@ export function parseArgs(argv, repo) {
     hostSim: null,
     noWorld: false,
     telemetry: null,
+    usbTelemetry: null,
+    noUsb: false,
     defmt: null,
     truth: null,
     faults: [],
@@ -44,6 +47,8 @@ export function parseArgs(argv, repo) {
       case '--host-sim': a.hostSim = v(); break;
       case '--no-world': a.noWorld = true; break;
       case '--telemetry': a.telemetry = v(); break;
+      case '--usb-telemetry': a.usbTelemetry = v(); break;
+      case '--no-usb': a.noUsb = true; break;
       case '--defmt': a.defmt = v(); break;
       case '--truth': a.truth = v(); break;
       case '--fault': a.faults.push(parseFault(v())); break;
@@ -58,6 +63,7 @@ export function parseArgs(argv, repo) {
   if (a.selfTest || a.help) return a;
   if (!a.elf) throw new Error('--elf is required (--bin is optional)');
   if (!(a.seconds > 0)) throw new Error('--seconds must be positive');
+  if (a.noUsb && a.usbTelemetry) throw new Error('--usb-telemetry needs the USB host: drop --no-usb');
   // Without --defmt the log goes beside the telemetry.
   if (!a.defmt && a.telemetry) a.defmt = a.telemetry.replace(/(\.bin)?$/, '.defmt');
   return a;

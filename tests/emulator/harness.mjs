@@ -9,7 +9,11 @@
 // frames on UART0 RX, and the motor PWM read back as wheel duties (devices/). Before every
 // sensor read the world is moved to the emulator's time (world.mjs: `host-sim serve`).
 //
-// Out come the telemetry from UART1 TX (`--telemetry`, decoded by `host-sim view`), the
+// A computer is plugged into the USB port (usb-host.mjs, unless `--no-usb`): it enumerates
+// the firmware's device and reads its CDC ACM serial port, the telemetry's second copy.
+//
+// Out come the telemetry from UART1 TX (`--telemetry`, decoded by `host-sim view`) and
+// from USB (`--usb-telemetry`, the bytes the host read from the bulk IN endpoint), the
 // raw defmt RTT bytes (`--defmt`, decoded by `cargo xtask emulate` against the ELF), the
 // world's true pose at each SLAM step (`--truth`) and one JSON object of figures on
 // stdout (result.mjs), cycles per step among them (step.mjs).
@@ -25,12 +29,13 @@ import { USAGE, parseArgs } from './args.mjs';
 import { bootChip } from './chip.mjs';
 import { readElf, flashImage } from './elf.mjs';
 import { Faults, selfTests as faultTests } from './faults.mjs';
-import { patchI2c, patchSpiMode, patchUart } from './patches.mjs';
+import { patchI2c, patchSpiMode, patchUart, patchUsbDevice, usbDeviceSelfTests } from './patches.mjs';
 import { profilersFromEnv, profileResult } from './profile.mjs';
 import { buildResult } from './result.mjs';
 import { RttDrain } from './rtt.mjs';
 import { runBothCores } from './scheduler.mjs';
 import { StepMeter, findStep, findFilterCode } from './step.mjs';
+import { UsbHost, selfTests as usbTests } from './usb-host.mjs';
 import { openWorld } from './world.mjs';
 import { CameraLink, selfTests as cameraTests } from './devices/camera.mjs';
 import { attachI2cBus } from './devices/i2c-bus.mjs';
@@ -47,7 +52,12 @@ const DEPTH_LPN_PIN = 6;
 function main() {
   const args = parseArgs(process.argv.slice(2), REPO);
   if (args.help) return console.log(USAGE);
-  if (args.selfTest) return selfTest();
+  if (args.selfTest) {
+    return void selfTest().catch((e) => {
+      console.error(`harness: ${e.message}`);
+      process.exit(2);
+    });
+  }
   const say = (...m) => { if (!args.quiet) console.error('[harness]', ...m); };
 
   const elf = readElf(args.elf);
@@ -80,6 +90,15 @@ function main() {
   patchUart(rp, rp.uart[1], later, (byte) => telemetry.push(byte));
   for (const i2c of rp.i2c) patchI2c(i2c);
   const devices = attachDevices({ rp, later, clock, faults, world, advanceWorld });
+  // The computer on the USB port, and what it read from the serial port.
+  const usbTelemetry = [];
+  const usbHost = args.noUsb ? null : new UsbHost({
+    bus: patchUsbDevice(rp),
+    later,
+    nowS,
+    onSerial: (bytes) => { for (const b of bytes) usbTelemetry.push(b); },
+    say,
+  });
 
   // The world's true pose as each step starts (one JSON line per step, `--truth`), for
   // scoring the firmware's pose tick by tick: the step estimates the pose at this instant.
@@ -111,13 +130,16 @@ function main() {
     world.close();
   }
 
+  if (usbHost) usbHost.endOfRun();
   if (args.telemetry) fs.writeFileSync(args.telemetry, Buffer.from(telemetry));
+  if (args.usbTelemetry) fs.writeFileSync(args.usbTelemetry, Buffer.from(usbTelemetry));
   if (args.truth) fs.writeFileSync(args.truth, truthLines.map((l) => `${l}\n`).join(''));
   if (defmtFd !== null) fs.closeSync(defmtFd);
 
   const result = buildResult({
     args, chip, run, meter, rtt, world, motors, truth, devices, faults,
     telemetryBytes: telemetry.length,
+    usb: usbHost ? usbHost.summary() : 'unplugged (--no-usb)',
     profile: profileResult(profilers, meter.cycles.length),
   });
   console.log(args.json ? JSON.stringify(result) : JSON.stringify(result, null, 2));
@@ -174,9 +196,10 @@ function attachDevices({ rp, later, clock, faults, world, advanceWorld }) {
 }
 
 /// Every module's self-tests, one line each; exits 1 if any failed.
-function selfTest() {
+async function selfTest() {
   let ok = true;
-  for (const [name, pass] of [...cameraTests(), ...faultTests()]) {
+  const usbDevice = await usbDeviceSelfTests();
+  for (const [name, pass] of [...cameraTests(), ...faultTests(), ...usbTests(), ...usbDevice]) {
     console.log(`${pass ? 'ok  ' : 'FAIL'} ${name}`);
     ok &&= pass;
   }

@@ -124,3 +124,149 @@ export function patchSpiMode(spi) {
     get() { return ((this.control0 >> 6) & 1) * 2 + ((this.control0 >> 7) & 1); },
   });
 }
+
+/// USB device controller: the chip's side of each bus transaction, for a host model
+/// (usb-host.mjs) to drive. rp2040js 1.4.1's device mode hands an IN buffer to its host
+/// hook and clears AVAILABLE the moment the firmware arms it, and clears AVAILABLE on an
+/// armed OUT buffer before any data came, so embassy-rp's control `data_out` reads an
+/// empty buffer. The RP2040 keeps a buffer's AVAILABLE set until a host transaction uses
+/// it: an IN token takes an armed IN buffer (AVAILABLE and FULL cleared), an OUT or the
+/// status stage fills an armed OUT buffer (LENGTH and FULL set, AVAILABLE cleared), and
+/// either raises the endpoint's BUFF_STATUS bit; with no buffer armed the endpoint NAKs.
+/// A token to another device address is ignored (the host times out). EP0 sends STALL
+/// only with both its buffer's STALL bit and EP_STALL_ARM set; a SETUP clears
+/// EP_STALL_ARM. Double buffering is not modelled (embassy-rp does not use it) and is
+/// reported if the firmware ever asks for it. Returns the bus: `setup(packet, address)`,
+/// `transferIn(ep, address)`, `transferOut(ep, address, data)` (each returns `{ status:
+/// 'ack' | 'nak' | 'stall' | 'timeout', data, pid }`), `reset()`, and hooks the host
+/// sets: `onAttach(attached)` when the pull-up (SIE_CTRL.PULLUP_EN) changes, `onArmed(ep,
+/// out)` when the firmware makes a buffer AVAILABLE, `onStall(ep, out)` when it sets STALL.
+export function patchUsbDevice(rp) {
+  const usb = rp.usbCtrl;
+  const dpram = rp.usbDPRAM;
+  const view = rp.usbDPRAMView;
+  const SIE_CTRL = 0x4c, PULLUP_EN = 1 << 16;
+  const SIE_SETUP_REC = 1 << 17, SIE_BUS_RESET = 1 << 19;
+  const AVAILABLE = 1 << 10, STALL = 1 << 11, DATA1 = 1 << 13, FULL = 1 << 15, LEN = 0x3ff;
+  const EP_ENABLE = 1 << 31, EP_DOUBLE_BUF = 1 << 30;
+  const bus = {
+    onAttach() {},
+    onArmed() {},
+    onStall() {},
+    /// Firmware requests the model cannot serve (double buffering), once each.
+    unsupported: new Set(),
+  };
+  const bufCtrl = (ep, out) => 0x80 + ep * 8 + (out ? 4 : 0);
+  // EP1..15 control registers: 0x08 + (ep - 1) * 8, IN then OUT. EP0's buffer is 0x100.
+  const epCtrl = (ep, out) => (ep === 0 ? EP_ENABLE | 0x100 : view.getUint32(0x08 + (ep - 1) * 8 + (out ? 4 : 0), true));
+  const addressed = (address) => (usb.addrEndp & 0x7f) === address;
+  const bufferDone = (ep, out) => {
+    usb.buffStatus |= 1 << (ep * 2 + (out ? 1 : 0));
+    usb.buffStatusUpdated();
+  };
+  const stalled = (ep, out, bc) => bc & STALL && (ep !== 0 || usb.epStallArm & (out ? 2 : 1));
+
+  let pullup = false;
+  const origWrite = usb.writeUint32.bind(usb);
+  usb.writeUint32 = (offset, value) => {
+    origWrite(offset, value);
+    if (offset !== SIE_CTRL || usb.hostMode) return;
+    const now = !!(usb.sieCtrl & PULLUP_EN);
+    if (now !== pullup) {
+      pullup = now;
+      bus.onAttach(now);
+    }
+  };
+  usb.DPRAMUpdated = (offset, value) => {
+    if (usb.hostMode || offset < 0x80 || offset > 0xfc) return;
+    const ep = (offset - 0x80) >> 3, out = !!(offset & 4);
+    if (value & (AVAILABLE << 16) || epCtrl(ep, out) & EP_DOUBLE_BUF) bus.unsupported.add(`double-buffered EP${ep} ${out ? 'OUT' : 'IN'}`);
+    if (value & STALL) bus.onStall(ep, out);
+    if (value & AVAILABLE) bus.onArmed(ep, out);
+  };
+
+  bus.deviceAddress = () => usb.addrEndp & 0x7f;
+  bus.reset = () => {
+    usb.sieStatus |= SIE_BUS_RESET;
+    usb.sieStatusUpdated();
+  };
+  bus.setup = (packet, address) => {
+    if (!pullup || !addressed(address)) return { status: 'timeout' };
+    dpram.set(packet, 0);
+    usb.epStallArm &= ~3;
+    usb.sieStatus |= SIE_SETUP_REC;
+    usb.sieStatusUpdated();
+    return { status: 'ack' };
+  };
+  bus.transferIn = (ep, address) => {
+    if (!pullup || !addressed(address) || !(epCtrl(ep, false) & EP_ENABLE)) return { status: 'timeout' };
+    const at = bufCtrl(ep, false);
+    const bc = view.getUint32(at, true);
+    if (stalled(ep, false, bc)) return { status: 'stall' };
+    if (!(bc & AVAILABLE) || !(bc & FULL)) return { status: 'nak' };
+    const start = epCtrl(ep, false) & 0xffc0;
+    const data = dpram.slice(start, start + (bc & LEN));
+    view.setUint32(at, bc & ~(AVAILABLE | FULL), true);
+    bufferDone(ep, false);
+    return { status: 'ack', data, pid: bc & DATA1 ? 1 : 0 };
+  };
+  bus.transferOut = (ep, address, data) => {
+    if (!pullup || !addressed(address) || !(epCtrl(ep, true) & EP_ENABLE)) return { status: 'timeout' };
+    const at = bufCtrl(ep, true);
+    const bc = view.getUint32(at, true);
+    if (stalled(ep, true, bc)) return { status: 'stall' };
+    if (!(bc & AVAILABLE)) return { status: 'nak' };
+    // More than the buffer's LENGTH is an RX overflow on the chip: the data is not taken.
+    if (data.length > (bc & LEN)) return { status: 'timeout', overflow: true };
+    dpram.set(data, epCtrl(ep, true) & 0xffc0);
+    view.setUint32(at, (bc & ~(AVAILABLE | LEN)) | FULL | data.length, true);
+    bufferDone(ep, true);
+    return { status: 'ack', pid: bc & DATA1 ? 1 : 0 };
+  };
+  return bus;
+}
+
+/// `patchUsbDevice` on a bare chip, the firmware's register writes made by hand: a
+/// buffer is only used once armed, stays armed until a transaction uses it, and EP0
+/// STALLs only while EP_STALL_ARM is set.
+export async function usbDeviceSelfTests() {
+  const { RP2040 } = await import('./node_modules/rp2040js/dist/esm/rp2040.js');
+  const { SimulationClock } = await import('./node_modules/rp2040js/dist/esm/clock/simulation-clock.js');
+  const rp = new RP2040(new SimulationClock());
+  const bus = patchUsbDevice(rp);
+  const USB = 0x50110000, DPRAM = 0x50100000;
+  const attached = [];
+  bus.onAttach = (a) => attached.push(a);
+  const armed = [];
+  bus.onArmed = (ep, out) => armed.push(`${ep}${out ? 'out' : 'in'}`);
+  rp.writeUint32(USB + 0x40, 1); // MAIN_CTRL: controller on, device mode
+  rp.writeUint32(USB + 0x4c, 1 << 16); // SIE_CTRL: pull-up
+  const before = bus.transferIn(0, 0).status;
+  rp.writeUint32(DPRAM + 0x100, 0x04030201);
+  rp.writeUint32(DPRAM + 0x80, (1 << 15) | (1 << 13) | 3); // EP0 IN: FULL, DATA1, 3 bytes
+  const notYet = bus.transferIn(0, 0).status;
+  rp.writeUint32(DPRAM + 0x80, (1 << 15) | (1 << 13) | (1 << 10) | 3); // ... AVAILABLE
+  const taken = bus.transferIn(0, 0);
+  const again = bus.transferIn(0, 0).status;
+  const inDone = rp.usbCtrl.buffStatus & 1;
+  rp.writeUint32(DPRAM + 0x84, (1 << 10) | 64); // EP0 OUT armed for 64 bytes
+  const stillArmed = rp.readUint32(DPRAM + 0x84) & (1 << 10);
+  const wrongAddress = bus.transferOut(0, 5, Uint8Array.from([9])).status;
+  const given = bus.transferOut(0, 0, Uint8Array.from([7, 8])).status;
+  const outBc = rp.readUint32(DPRAM + 0x84);
+  rp.writeUint32(DPRAM + 0x80, 1 << 11); // EP0 IN STALL without EP_STALL_ARM
+  const unarmedStall = bus.transferIn(0, 0).status;
+  rp.writeUint32(USB + 0x68, 1); // EP_STALL_ARM EP0 IN
+  const stall = bus.transferIn(0, 0).status;
+  bus.setup(new Uint8Array(8), 0);
+  const afterSetup = bus.transferIn(0, 0).status;
+  return [
+    ['usb device: attach on the pull-up', attached.join() === 'true'],
+    ['usb device: NAK until a buffer is armed', before === 'nak' && notYet === 'nak'],
+    ['usb device: an armed IN buffer is taken once', taken.status === 'ack' && taken.data.join() === '1,2,3' && taken.pid === 1 && again === 'nak' && inDone === 1],
+    ['usb device: an OUT buffer stays armed until data comes', stillArmed !== 0 && armed.join() === '0in,0out'],
+    ['usb device: a token to another address is ignored', wrongAddress === 'timeout'],
+    ['usb device: OUT data fills the buffer', given === 'ack' && (outBc & 0x3ff) === 2 && outBc & (1 << 15) && !(outBc & (1 << 10)) && rp.usbDPRAM[0x100] === 7],
+    ['usb device: EP0 stalls only with EP_STALL_ARM, until the next SETUP', unarmedStall === 'nak' && stall === 'stall' && afterSetup === 'nak'],
+  ];
+}

@@ -14,7 +14,7 @@ const loadPct = (cycles, seconds) => round((100 * cycles) / (seconds * NOMINAL_C
 
 /// The result from the run's parts, in the key order `cargo xtask emulate` and the
 /// baseline outputs were written with.
-export function buildResult({ args, chip, run, meter, rtt, telemetryBytes, world, motors, truth, devices, faults, profile }) {
+export function buildResult({ args, chip, run, meter, rtt, telemetryBytes, usb, world, motors, truth, devices, faults, profile }) {
   const { rp, core, core1, clock, messages } = chip;
   const simS = clock.nanos / 1e9;
   const { flow, imu, imuBus, depth, depthBus, camera } = devices;
@@ -45,6 +45,7 @@ export function buildResult({ args, chip, run, meter, rtt, telemetryBytes, world
         ? { launched: true, instructions: run.core1Instructions, cycles: core1.core.cycles, load_pct: loadPct(core1.core.cycles, simS), fifo_words: core1.fifoWords }
         : { launched: false, launch_words: core1.launchWords },
     },
+    usb,
     faults_injected: faults.report(),
     emulator_messages: [...messages].slice(0, 20).map(([k, n]) => `${n}x ${k}`),
     ...profile,

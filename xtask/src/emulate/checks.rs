@@ -50,6 +50,7 @@ pub fn fault_run() -> Result<(u64, u64), String> {
     let fresh_depth_after_fault = ticks - depth_stale - TICKS_BEFORE_FAULT;
     let mut checks = timing_checks(e, v);
     checks.push(replay_check(&f));
+    checks.extend(usb_checks(&f));
     checks.extend([
         (
             "telemetry decoded without a bad frame".into(),
@@ -176,6 +177,44 @@ fn replay_check(f: &serde_json::Value) -> (String, bool) {
     )
 }
 
+/// The run's USB checks: the harness's host enumerated the firmware's device (its
+/// descriptors, or the request that stalled), and the CDC stream it read is the UART's run
+/// ([`super::usb_stream`] says what is compared).
+fn usb_checks(f: &serde_json::Value) -> [(String, bool); 2] {
+    let (host, u) = (&f["emulator"]["usb"], &f["usb"]);
+    let text = |x: &serde_json::Value| x.as_str().unwrap_or("?").to_string();
+    let enumerated = match host["error"].as_str() {
+        None if host["port_open_s"].is_number() => (
+            format!(
+                "USB enumerated: {} \"{}\", {} configured at {:.3} s, port open (DTR) at {:.3} s after {} requests",
+                text(&host["device"]["vid_pid"]),
+                text(&host["device"]["product"]),
+                match host["cdc"]["bulk_in"].as_u64() {
+                    Some(ep) => format!("CDC ACM with bulk IN 0x{ep:02x},"),
+                    None => "no CDC ACM function,".into(),
+                },
+                host["configured_s"].as_f64().unwrap_or(f64::NAN),
+                host["port_open_s"].as_f64().unwrap_or(f64::NAN),
+                host["requests"].as_array().map_or(0, Vec::len),
+            ),
+            host["cdc"]["bulk_in"].is_u64(),
+        ),
+        None => (format!("USB enumerated: no host report ({host})"), false),
+        Some(e) => (format!("USB enumerated: {e}"), false),
+    };
+    let fw = &u["firmware"];
+    let same = match u["first_difference"].as_str() {
+        None if u.is_object() => format!(
+            "the USB stream is the UART's run: {} messages equal (ticks {} to {}, every pose, filter state and map chunk), final map equal ({} cells); joined at UART message {} after the {} frames the firmware offered before the host was there; tail at the cut {} UART / {} USB",
+            u["compared_messages"], u["first_tick"], u["last_tick"], u["map_cells"],
+            u["joined_at_message"], fw["no_host"], u["tail_uart_only"], u["tail_usb_only"]
+        ),
+        None => "the USB stream is the UART's run: not compared (--no-usb)".into(),
+        Some(d) => format!("the USB stream is the UART's run: {d}"),
+    };
+    [enumerated, (same, u["same_run"] == true)]
+}
+
 /// Simulated seconds for the whole seed route: 48.5 s of route after about 1.1 s of gyro
 /// calibration at rest from reset, and time for the last tick's telemetry to get out.
 const ROUTE_SECONDS: &str = "52";
@@ -264,6 +303,7 @@ pub fn route_run() -> Result<(u64, u64), String> {
     };
     let mut checks = timing_checks(e, v);
     checks.push(replay_check(&f));
+    checks.extend(usb_checks(&f));
     checks.extend([
         (
             "telemetry decoded without a bad frame".into(),
@@ -365,6 +405,36 @@ mod tests {
         // A figure missing from either side never agrees.
         assert!(!agrees(f64::NAN, 13.6, Absolute(1.5)));
         assert!(!agrees(13.6, f64::NAN, Relative(0.25)));
+    }
+
+    #[test]
+    fn the_usb_checks_name_the_stalled_request_and_the_difference() {
+        let host = serde_json::json!({
+            "configured_s": 0.124, "port_open_s": 0.125, "error": null, "requests": ["a", "b"],
+            "device": { "vid_pid": "1209:0001", "product": "BugBot telemetry" },
+            "cdc": { "bulk_in": 130 },
+        });
+        let same = serde_json::json!({ "same_run": true, "first_difference": null,
+            "compared_messages": 10, "first_tick": 2, "last_tick": 5, "map_cells": 4,
+            "joined_at_message": 3, "firmware": { "no_host": 3 },
+            "tail_uart_only": 1, "tail_usb_only": 0 });
+        let f = serde_json::json!({ "emulator": { "usb": host }, "usb": same });
+        let [(e, e_ok), (s, s_ok)] = usb_checks(&f);
+        assert!(
+            e_ok && e.contains("1209:0001") && e.contains("bulk IN 0x82"),
+            "{e}"
+        );
+        assert!(s_ok && s.contains("ticks 2 to 5"), "{s}");
+        let stalled = serde_json::json!({ "configured_s": null, "port_open_s": null,
+            "error": "port not open 1 s after the attach: GET_DESCRIPTOR(Device, 64) waiting in its data IN stage" });
+        let differs = serde_json::json!({ "same_run": false, "first_difference": "message 7: UART has Tick 4" });
+        let f = serde_json::json!({ "emulator": { "usb": stalled }, "usb": differs });
+        let [(e, e_ok), (s, s_ok)] = usb_checks(&f);
+        assert!(
+            !e_ok && e.contains("GET_DESCRIPTOR(Device, 64) waiting in its data IN stage"),
+            "{e}"
+        );
+        assert!(!s_ok && s.contains("message 7: UART has Tick 4"), "{s}");
     }
 
     #[test]

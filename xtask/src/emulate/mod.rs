@@ -10,9 +10,10 @@
 //! its own loop counters, and the captured telemetry with `host-sim view`, which prints the figures and
 //! draws the pictures into `out/emulator/`. The harness also records the world's true pose
 //! at each step (`truth.jsonl`), so `view --truth --scenario` reports the figures
-//! `host-sim run` reports, worked out by the same code. Last, `host-sim replay` steps the
+//! `host-sim run` reports, worked out by the same code. Then `host-sim replay` steps the
 //! stream's input frames through the core again and compares the result with what the
-//! firmware sent, tick for tick.
+//! firmware sent, tick for tick. Last, the copy of the telemetry the harness's USB host
+//! read over the firmware's CDC ACM serial port is held to the UART's ([`usb_stream`]).
 //!
 //! [`checks`] holds what `cargo xtask test` requires of such runs, [`self_tests`] runs the
 //! harness's own tests.
@@ -21,6 +22,7 @@ pub mod checks;
 pub mod defmt_log;
 pub mod progress;
 pub mod self_tests;
+pub mod usb_stream;
 
 use std::os::fd::AsFd;
 use std::path::{Path, PathBuf};
@@ -53,10 +55,15 @@ pub struct EmulateArgs {
     /// Run without host-sim: the robot stands still on a good surface.
     #[arg(long)]
     pub no_world: bool,
+    /// Leave the USB port unplugged: no host enumerates the firmware's device, and the
+    /// USB copy of the telemetry is neither recorded nor checked.
+    #[arg(long)]
+    pub no_usb: bool,
     /// Stop after this many wall-clock seconds.
     #[arg(long, value_name = "S", value_parser = positive_number)]
     pub max_wall: Option<String>,
-    /// Print one JSON object: {"emulator": ..., "view": ..., "replay": ..., "out_dir": ...}.
+    /// Print one JSON object: {"emulator": ..., "view": ..., "replay": ..., "usb": ...,
+    /// "out_dir": ...}.
     #[arg(long)]
     pub json: bool,
 }
@@ -110,6 +117,7 @@ pub fn run(args: &EmulateArgs) -> Result<(), String> {
     let telemetry = out_dir.join("telemetry.bin");
     let defmt = out_dir.join("defmt.raw");
     let truth = out_dir.join("truth.jsonl");
+    let usb_telemetry = out_dir.join("usb-telemetry.bin");
     let mut harness = Command::new("node");
     harness
         .arg(harness_dir.join("harness.mjs"))
@@ -133,6 +141,11 @@ pub fn run(args: &EmulateArgs) -> Result<(), String> {
             .arg(&host_sim)
             .arg("--truth")
             .arg(&truth);
+    }
+    if args.no_usb {
+        harness.arg("--no-usb");
+    } else {
+        harness.arg("--usb-telemetry").arg(&usb_telemetry);
     }
     if let Some(s) = &args.max_wall {
         harness.args(["--max-wall", s]);
@@ -168,6 +181,11 @@ pub fn run(args: &EmulateArgs) -> Result<(), String> {
     let counters = LoopCounters::last_in(&lines)
         .map_err(|e| format!("the firmware's defmt log {}: {e}", defmt.display()))?;
     defmt_log::add_figures(&mut emulator, &lines, counters);
+    let usb_json = if args.no_usb {
+        serde_json::Value::Null
+    } else {
+        usb_stream::check(&telemetry, &usb_telemetry, &lines)?
+    };
     let emulator_json = serde_json::Value::Object(emulator);
 
     let mut view = Command::new(&host_sim);
@@ -204,7 +222,7 @@ pub fn run(args: &EmulateArgs) -> Result<(), String> {
             Err(e) => format!("{{\"error\":{}}}", json_string(e)),
         };
         println!(
-            "{{\"emulator\":{emulator_json},\"view\":{view_json},\"replay\":{replay_json},\"out_dir\":{}}}",
+            "{{\"emulator\":{emulator_json},\"view\":{view_json},\"replay\":{replay_json},\"usb\":{usb_json},\"out_dir\":{}}}",
             json_string(&out_dir.display().to_string())
         );
     } else {
@@ -214,7 +232,13 @@ pub fn run(args: &EmulateArgs) -> Result<(), String> {
             Err(e) => eprintln!("xtask emulate: host-sim view failed: {e}"),
         }
         println!("replay: {replay_json}");
+        if !args.no_usb {
+            println!("usb: {usb_json}");
+        }
         println!("pictures and raw streams in {}", out_dir.display());
+        if !args.no_usb {
+            usb_stream::verdict(&emulator_json["usb"], &usb_json)?;
+        }
     }
     Ok(())
 }
@@ -337,7 +361,8 @@ mod tests {
         assert_eq!(a.seed, "1");
         assert_eq!(a.faults, ["depth-nack@T+3", "gyro-nack@T+1/2"]);
         assert_eq!(a.max_wall.as_deref(), Some("30"));
-        assert!(a.json && !a.no_world);
+        assert!(a.json && !a.no_world && !a.no_usb);
+        assert!(parse(&["--no-usb"]).unwrap().no_usb);
         let d = parse(&["--no-world"]).unwrap();
         assert_eq!((d.scenario, d.seconds.as_str()), (None, "60"));
         assert!(d.no_world);
