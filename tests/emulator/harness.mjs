@@ -25,6 +25,8 @@ import { USAGE, parseArgs } from './args.mjs';
 import { bootChip } from './chip.mjs';
 import { readElf, flashImage } from './elf.mjs';
 import { Faults, selfTests as faultTests } from './faults.mjs';
+import { selfTests as core1Tests } from './core1.mjs';
+import { selfTests as dividerTests } from './divider.mjs';
 import { patchI2c, patchSpiMode, patchUart } from './patches.mjs';
 import { profilersFromEnv, profileResult } from './profile.mjs';
 import { buildResult } from './result.mjs';
@@ -176,7 +178,7 @@ function attachDevices({ rp, later, clock, faults, world, advanceWorld }) {
 /// Every module's self-tests, one line each; exits 1 if any failed.
 function selfTest() {
   let ok = true;
-  for (const [name, pass] of [...cameraTests(), ...faultTests()]) {
+  for (const [name, pass] of [...cameraTests(), ...faultTests(), ...dividerTests(), ...core1Tests()]) {
     console.log(`${pass ? 'ok  ' : 'FAIL'} ${name}`);
     ok &&= pass;
   }
