@@ -16,8 +16,8 @@
 //   or a 0; once the sequence is complete it sets VTOR, SP and PC and runs;
 // - SEV: on the chip it sets the event register of both cores, waking a core asleep in
 //   WFE. rp2040js only logs it; `sev()` does what the chip does;
-// - a hardware divider per core (divider.mjs), as on the chip, where rp2040js has one: the
-//   firmware's integer divisions run on it (embassy-rp's `intrinsics`) on both cores.
+// - a hardware divider per core (divider.mjs), as on the chip, where rp2040js has one, so
+//   that code dividing on it (embassy-rp's `intrinsics`) on both cores gets its own results.
 //
 // Not modelled: peripheral interrupts on core 1 (the chip routes every IRQ to both NVICs;
 // the firmware enables none on core 1 but its FIFO's, and GPIO interrupts are per core

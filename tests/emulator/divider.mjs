@@ -8,7 +8,7 @@
 // the register written) and sets DIRTY; reading QUOTIENT clears DIRTY; writing QUOTIENT or
 // REMAINDER stores the value and sets READY and DIRTY (how an interrupt handler puts back
 // the state it saved). The chip's result is valid 8 cycles after the last operand write and
-// the writes do not stall the core: the firmware waits those cycles itself (embassy-rp's
+// the writes do not stall the core: code using it waits those cycles itself (embassy-rp's
 // `intrinsics` run 8 cycles of branches), so no cycles are charged here and READY reads 1
 // at once.
 
