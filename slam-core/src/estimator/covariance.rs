@@ -445,16 +445,25 @@ impl Covariance {
     pub fn bound(&mut self, floor: &[i32; N], ceiling: &[i32; N]) {
         for i in 0..N {
             for j in i + 1..N {
-                // Variances are positive here: squares compared, 32 x 32 bits, unless
-                // the covariance is within half the smaller variance (correlation below
-                // one half, and so below the limit), which needs no product.
+                // Variances are positive here: squares compared, unless the covariance
+                // is below `m (1 - 2^-8)` for the smaller variance `m`, which needs no
+                // product: its square is then below `m^2 (1 - 2^-9)`, and so below the
+                // limit.
                 let v = self.m[i][j].unsigned_abs();
                 let (a, b) = (self.m[i][i].max(0) as u32, self.m[j][j].max(0) as u32);
-                if v <= a.min(b) >> 1 {
+                let m = a.min(b);
+                if v < m - (m >> 8) {
                     continue;
                 }
-                let limit = wide_mul_unsigned(a, b);
-                if wide_mul_unsigned(v, v) > limit - (limit >> 9) {
+                // A converged filter's entries are under 2^16: the squares fit 32 bits.
+                let too_close = if (a | b | v) < 1 << 16 {
+                    let limit = a * b;
+                    v * v > limit - (limit >> 9)
+                } else {
+                    let limit = wide_mul_unsigned(a, b);
+                    wide_mul_unsigned(v, v) > limit - (limit >> 9)
+                };
+                if too_close {
                     for k in [i, j] {
                         let d = self.m[k][k];
                         self.m[k][k] = d.saturating_add((d >> 9) + 1);
@@ -539,6 +548,66 @@ mod tests {
             narrow_taken += usize::from(narrow.propagate_narrow(used, &noise, &ceiling));
         }
         assert!(narrow_taken > 10_000, "{narrow_taken}");
+    }
+
+    /// [`Covariance::bound`]'s correlation check as first written: every pair past half
+    /// the smaller variance compared by 64-bit squares.
+    fn bound_reference(p: &mut Covariance, floor: &[i32; N], ceiling: &[i32; N]) {
+        for i in 0..N {
+            for j in i + 1..N {
+                let v = p.m[i][j].unsigned_abs();
+                let (a, b) = (p.m[i][i].max(0) as u32, p.m[j][j].max(0) as u32);
+                if v <= a.min(b) >> 1 {
+                    continue;
+                }
+                let limit = u64::from(a) * u64::from(b);
+                if u64::from(v) * u64::from(v) > limit - (limit >> 9) {
+                    for k in [i, j] {
+                        let d = p.m[k][k];
+                        p.m[k][k] = d.saturating_add((d >> 9) + 1);
+                    }
+                }
+            }
+        }
+        p.bound_variances(floor, ceiling);
+    }
+
+    #[test]
+    fn bound_is_the_64_bit_check() {
+        let mut rng = Lcg::new(23);
+        let floor = [4, 4, 16, 1, 1, 1];
+        let ceiling = [1 << 30; N];
+        let mut raised = 0;
+        for n in 0..50_000 {
+            // Variances of every size, covariances near the limit of each pair.
+            let mut m = [[0i32; N]; N];
+            for i in 0..N {
+                m[i][i] = rng.within(1 << (4 + (n + i) % 27)).abs() as i32;
+            }
+            if n % 3 == 0 {
+                // Equal variances, where the smaller one alone decides.
+                let v = m[0][0];
+                for i in 0..N {
+                    m[i][i] = v + (rng.within(2) as i32).max(-v);
+                }
+            }
+            for i in 0..N {
+                for j in i + 1..N {
+                    let limit = ((m[i][i] as f64) * (m[j][j] as f64)).sqrt();
+                    let r = 1.0 - (rng.within(1 << 12).abs() as f64) / f64::from(1 << (6 + n % 8));
+                    let v = (limit * r) as i32 * if rng.within(1) < 0 { -1 } else { 1 };
+                    m[i][j] = v;
+                    m[j][i] = v;
+                }
+            }
+            let mut fast = Covariance { m };
+            fast.bound(&floor, &ceiling);
+            let mut slow = Covariance { m };
+            bound_reference(&mut slow, &floor, &ceiling);
+            assert_eq!(fast, slow, "case {n}");
+            raised += usize::from(fast.m != m);
+        }
+        assert!(raised > 1_000, "{raised}");
     }
 
     #[test]
