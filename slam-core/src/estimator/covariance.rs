@@ -61,6 +61,12 @@ fn update_fits_i32(k1: &[i32; N], a1: &[i32; N], k2: &[i32; N], a2: &[i32; N]) -
     bound < 1 << (31 + GAIN_SHIFT)
 }
 
+/// Whether `|u1[i]| + |u2[i]|` stays below `2^16 - 1` for every pair of entries: then
+/// each sum of their products with 16-bit halves, and the rounding bias, fits 31 bits.
+fn short_pair(u1: &[i32; N], u2: &[i32; N]) -> bool {
+    max_abs(u1).saturating_add(max_abs(u2)) < (1 << 16) - 1
+}
+
 /// A vector in 16-bit halves, `x = hi 2^16 + lo`, `|hi| <= 2^15`, and `lo` within
 /// `[-2^15, 2^15)` (a gain's, `low_up == false`) or `(-2^15, 2^15]` (a `P h`'s): every
 /// product of two halves then fits 31 bits, and so does the sum of two products of low
@@ -344,9 +350,16 @@ impl Covariance {
             (Some(k1), Some(a1), Some(k2), Some(a2)) if products_fit_i32(&k1, &a1, &k2, &a2) => {
                 self.update_narrow([(&k1, &a1), (&k2, &a2)])
             }
-            // Larger ones whose result fits 32 bits: four single-cycle multiplies of halves.
+            // Larger ones whose result fits 32 bits: two single-cycle multiplies a product
+            // when one side is short, four of halves otherwise.
             (Some(k1), Some(a1), Some(k2), Some(a2)) if update_fits_i32(&k1, &a1, &k2, &a2) => {
-                self.update_halves([(&k1, &a1), (&k2, &a2)])
+                if short_pair(&k1, &k2) {
+                    self.update_split::<false>([(&k1, &a1), (&k2, &a2)])
+                } else if short_pair(&a1, &a2) {
+                    self.update_split::<true>([(&k1, &a1), (&k2, &a2)])
+                } else {
+                    self.update_halves([(&k1, &a1), (&k2, &a2)])
+                }
             }
             // A working filter's gains and `P h` fit 32 bits: 32 x 32 multiplies.
             (Some(k1), Some(a1), Some(k2), Some(a2)) => self.update_32x32([(&k1, &a1), (&k2, &a2)]),
@@ -362,6 +375,38 @@ impl Covariance {
         for i in 0..N {
             for j in i..N {
                 let d = (k1[i] * a1[j] + k2[i] * a2[j] + (1 << (GAIN_SHIFT - 1))) >> GAIN_SHIFT;
+                let v = self.m[i][j].saturating_sub(d).max(-i32::MAX);
+                self.m[i][j] = v;
+                self.m[j][i] = v;
+            }
+        }
+    }
+
+    /// [`Covariance::update`]'s `P - k1 a1^T - k2 a2^T` where each rounded sum fits 32
+    /// bits ([`update_fits_i32`]) and one side is short ([`short_pair`]): the gains
+    /// (`SPLIT_GAIN == false`, the other side then split) or the `P h`s. With the long
+    /// side in [`Halves`], `x (hi 2^16 + lo)` summed over both updates and rounded is
+    /// `sum x hi + (sum x lo + 2^15) / 2^16`: the low sum is exact in 32 bits, the high
+    /// one wraps as the whole does not. Two multiplies a product where halves take four.
+    fn update_split<const SPLIT_GAIN: bool>(&mut self, updates: [(&[i32; N], &[i32; N]); 2]) {
+        let [(k1, a1), (k2, a2)] = updates;
+        let (h1, h2) = if SPLIT_GAIN {
+            (Halves::of(k1, false), Halves::of(k2, false))
+        } else {
+            (Halves::of(a1, true), Halves::of(a2, true))
+        };
+        for i in 0..N {
+            for j in i..N {
+                let (x1, x2, at) = if SPLIT_GAIN {
+                    (a1[j], a2[j], i)
+                } else {
+                    (k1[i], k2[i], j)
+                };
+                let high = x1
+                    .wrapping_mul(h1.hi[at])
+                    .wrapping_add(x2.wrapping_mul(h2.hi[at]));
+                let low = x1 * h1.lo[at] + x2 * h2.lo[at] + (1 << (GAIN_SHIFT - 1));
+                let d = high.wrapping_add(low >> GAIN_SHIFT);
                 let v = self.m[i][j].saturating_sub(d).max(-i32::MAX);
                 self.m[i][j] = v;
                 self.m[j][i] = v;
@@ -631,6 +676,47 @@ mod tests {
             assert_eq!(fast, wide, "case {n}");
         }
         assert!(narrow_taken > 5_000, "{narrow_taken}");
+    }
+
+    #[test]
+    fn update_split_is_the_32x32_one_bit_for_bit() {
+        let mut rng = Lcg::new(31);
+        let mut taken = [0; 2];
+        for n in 0..40_000 {
+            let (p, _, _) = case(&mut rng, 20 + (n % 11) as u32);
+            // One side short (up to 2^15 an entry, so a pair may pass the limit), the
+            // other of any size.
+            let short_bits = 4 + (n % 12) as u32;
+            let long_bits = 8 + (n / 12 % 24) as u32;
+            let mut vector = |bits: u32| -> [i32; N] {
+                core::array::from_fn(|_| rng.within((1 << bits) - 1) as i32)
+            };
+            let (s1, s2, l1, l2) = (
+                vector(short_bits),
+                vector(short_bits),
+                vector(long_bits),
+                vector(long_bits),
+            );
+            for (split_gain, (k1, a1, k2, a2)) in
+                [(false, (s1, l1, s2, l2)), (true, (l1, s1, l2, s2))]
+            {
+                let short = if split_gain { (&a1, &a2) } else { (&k1, &k2) };
+                if !(update_fits_i32(&k1, &a1, &k2, &a2) && short_pair(short.0, short.1)) {
+                    continue;
+                }
+                taken[usize::from(split_gain)] += 1;
+                let mut fast = p;
+                if split_gain {
+                    fast.update_split::<true>([(&k1, &a1), (&k2, &a2)]);
+                } else {
+                    fast.update_split::<false>([(&k1, &a1), (&k2, &a2)]);
+                }
+                let mut wide = p;
+                wide.update_32x32([(&k1, &a1), (&k2, &a2)]);
+                assert_eq!(fast, wide, "case {n}, gain split {split_gain}");
+            }
+        }
+        assert!(taken.iter().all(|&t| t > 10_000), "{taken:?}");
     }
 
     #[test]
