@@ -440,12 +440,20 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         );
     }
 
-    /// Every tag in the picture, one update each at the picture's moment; each taken
-    /// correction carries the remembered poses and the pose now, as a fix does.
+    /// Every tag in the picture, one update each at the picture's moment, each from the
+    /// pose the updates before it left there; the taken corrections then carry the
+    /// remembered poses and the pose now once, as a fix does (one motion from the
+    /// picture's pose before the first to after the last: the same as carrying each in
+    /// turn, but for rounding, for half the work with two tags in view).
     fn filter_tags(&mut self, frame: &SensorFrame) -> FixOutcome {
         let mut outcome = FixOutcome::NotAttempted;
+        // The picture's pose before the first taken update and after the latest.
+        let mut carried: Option<(Pose, Pose)> = None;
         for detection in frame.tags.iter() {
-            let then = self.history.at(frame.tags_age_us);
+            let then = match carried {
+                Some((_, corrected)) => Some(corrected),
+                None => self.history.at(frame.tags_age_us),
+            };
             let tag = self.config.tags.get(detection.id);
             match self
                 .estimator
@@ -453,11 +461,8 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             {
                 Ok(corrected) => {
                     if let Some(then) = then {
-                        let motion = RigidMotion::carrying(&then, &corrected);
-                        self.history.carry(&motion);
-                        #[cfg(feature = "matching")]
-                        self.sweep.carry(&motion);
-                        self.pose = self.history.newest();
+                        let first = carried.map_or(then, |(first, _)| first);
+                        carried = Some((first, corrected));
                     }
                     outcome = FixOutcome::Taken;
                 }
@@ -469,6 +474,13 @@ impl<const W: usize, const H: usize> Slam<W, H> {
                 }
                 Err(_) => {}
             }
+        }
+        if let Some((first, last)) = carried {
+            let motion = RigidMotion::carrying(&first, &last);
+            self.history.carry(&motion);
+            #[cfg(feature = "matching")]
+            self.sweep.carry(&motion);
+            self.pose = self.history.newest();
         }
         self.estimator.settle();
         match outcome {

@@ -15,15 +15,19 @@
 //   (0, 0, 1, VTOR, SP, entry), echoing each word back and starting over on a mismatch
 //   or a 0; once the sequence is complete it sets VTOR, SP and PC and runs;
 // - SEV: on the chip it sets the event register of both cores, waking a core asleep in
-//   WFE. rp2040js only logs it; `sev()` does what the chip does.
+//   WFE. rp2040js only logs it; `sev()` does what the chip does;
+// - a hardware divider per core (divider.mjs), as on the chip, where rp2040js has one, so
+//   that code dividing on it (embassy-rp's `intrinsics`) on both cores gets its own results.
 //
 // Not modelled: peripheral interrupts on core 1 (the chip routes every IRQ to both NVICs;
 // the firmware enables none on core 1 but its FIFO's, and GPIO interrupts are per core
-// through PROCn_INTE anyway), core 1's hardware divider and interpolators (shared with
-// core 0's here; the firmware's core 1 code uses neither), bus contention between cores.
+// through PROCn_INTE anyway), core 1's interpolators (shared with core 0's here; the
+// firmware uses none), bus contention between cores.
 
+import { RP2040 } from './node_modules/rp2040js/dist/esm/rp2040.js';
 import { CortexM0Core } from './node_modules/rp2040js/dist/esm/cortex-m0-core.js';
 import { RPPPB } from './node_modules/rp2040js/dist/esm/peripherals/ppb.js';
+import { Divider } from './divider.mjs';
 
 const CPUID = 0x000;
 const FIFO_ST = 0x050;
@@ -117,13 +121,15 @@ export function addCore1(rp) {
     return (fifos[n].length ? FIFO_ST_VLD : 0) | (txRoom ? FIFO_ST_RDY : 0) | sticky[n];
   };
 
-  // Each core's view of the SIO: the shared block (GPIO, spinlocks, divider), by
-  // delegation so that rp2040js's GPIO pins still find its output registers, with the
-  // per-core registers answered here.
+  // Each core's view of the SIO: the shared block (GPIO, spinlocks), by delegation so
+  // that rp2040js's GPIO pins still find its output registers, with the per-core
+  // registers (CPUID, the FIFO ends, the divider) answered here.
   const sio = rp.sio;
+  const dividers = [new Divider(), new Divider()];
   const view = (n) => {
     const v = Object.create(sio);
     v.readUint32 = (offset) => {
+      if (Divider.owns(offset)) return dividers[n].readUint32(offset);
       switch (offset) {
         case CPUID: return n;
         case FIFO_ST: return status(n);
@@ -132,6 +138,7 @@ export function addCore1(rp) {
       }
     };
     v.writeUint32 = (offset, value) => {
+      if (Divider.owns(offset)) return dividers[n].writeUint32(offset, value);
       switch (offset) {
         case FIFO_WR: write(n, value); return;
         case FIFO_ST: sticky[n] = 0; updateIrqs(); return; // any write clears WOF and ROE
@@ -191,4 +198,29 @@ function addMpuRegisters(ppb) {
       default: write(offset, value);
     }
   };
+}
+
+/// Core 1's own checks, one `[name, pass]` each: the two cores dividing interleaved, each
+/// operand write of one core between the other's, each get their own results (on the chip
+/// each core has its own divider; one shared divider would hand core 0 core 1's quotient).
+export function selfTests() {
+  const rp = new RP2040();
+  const core1 = addCore1(rp);
+  const buses = [rp, core1.core.rp2040];
+  const SIO = 0xd0000000;
+  const write = (n, offset, value) => buses[n].writeUint32(SIO + offset, value);
+  const read = (n, offset) => buses[n].readUint32(SIO + offset) >>> 0;
+  write(0, 0x068, -1000); // core 0: SDIVIDEND
+  write(1, 0x060, 77); // core 1: UDIVIDEND
+  write(0, 0x06c, 7); // core 0: SDIVISOR
+  write(1, 0x064, 5); // core 1: UDIVISOR
+  const q1 = read(1, 0x070);
+  const q0 = read(0, 0x070);
+  const r0 = read(0, 0x074);
+  const r1 = read(1, 0x074);
+  return [
+    ['core 0 and core 1 divide interleaved, each on its own divider',
+      q0 === (-142 >>> 0) && r0 === (-6 >>> 0) && q1 === 15 && r1 === 2],
+    ['each core reads its own CPUID', read(0, 0x000) === 0 && read(1, 0x000) === 1],
+  ];
 }

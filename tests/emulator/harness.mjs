@@ -29,6 +29,8 @@ import { USAGE, parseArgs } from './args.mjs';
 import { bootChip } from './chip.mjs';
 import { readElf, flashImage } from './elf.mjs';
 import { Faults, selfTests as faultTests } from './faults.mjs';
+import { selfTests as core1Tests } from './core1.mjs';
+import { selfTests as dividerTests } from './divider.mjs';
 import { patchI2c, patchSpiMode, patchUart, patchUsbDevice, usbDeviceSelfTests } from './patches.mjs';
 import { profilersFromEnv, profileResult } from './profile.mjs';
 import { buildResult } from './result.mjs';
@@ -199,7 +201,10 @@ function attachDevices({ rp, later, clock, faults, world, advanceWorld }) {
 async function selfTest() {
   let ok = true;
   const usbDevice = await usbDeviceSelfTests();
-  for (const [name, pass] of [...cameraTests(), ...faultTests(), ...usbTests(), ...usbDevice]) {
+  const all = [
+    ...cameraTests(), ...faultTests(), ...dividerTests(), ...core1Tests(), ...usbTests(), ...usbDevice,
+  ];
+  for (const [name, pass] of all) {
     console.log(`${pass ? 'ok  ' : 'FAIL'} ${name}`);
     ok &&= pass;
   }

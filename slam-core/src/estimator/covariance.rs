@@ -61,6 +61,12 @@ fn update_fits_i32(k1: &[i32; N], a1: &[i32; N], k2: &[i32; N], a2: &[i32; N]) -
     bound < 1 << (31 + GAIN_SHIFT)
 }
 
+/// Whether `|u1[i]| + |u2[i]|` stays below `2^16 - 1` for every pair of entries: then
+/// each sum of their products with 16-bit halves, and the rounding bias, fits 31 bits.
+fn short_pair(u1: &[i32; N], u2: &[i32; N]) -> bool {
+    max_abs(u1).saturating_add(max_abs(u2)) < (1 << 16) - 1
+}
+
 /// A vector in 16-bit halves, `x = hi 2^16 + lo`, `|hi| <= 2^15`, and `lo` within
 /// `[-2^15, 2^15)` (a gain's, `low_up == false`) or `(-2^15, 2^15]` (a `P h`'s): every
 /// product of two halves then fits 31 bits, and so does the sum of two products of low
@@ -130,11 +136,8 @@ impl Covariance {
     /// the matrix positive definite) before the matrix goes back to 32 bits.
     #[inline(never)]
     pub fn propagate(&mut self, d: &[Entry], noise: &[i64; N], ceiling: &[i32; N]) {
-        if let Some(next) = self.propagated_narrow(d, noise) {
-            if (0..N).all(|i| next[i][i] <= ceiling[i]) {
-                self.m = next;
-                return;
-            }
+        if self.propagate_narrow(d, noise, ceiling) {
+            return;
         }
         // A tick's Jacobian entries are a tick's displacement and turn: within 1.0 in
         // Q16 at any speed the robot drives, two 32-bit multiplies each.
@@ -154,59 +157,78 @@ impl Covariance {
         self.settle_propagated(next, noise, ceiling);
     }
 
-    /// `P + D P + (D P)^T + D P D^T + Q` in 32 bits, the same as the 64-bit sum, when
-    /// that provably fits: `D` at most two entries a row, each within 1.0 and in a pose
-    /// row, `|P| < 2^27` and `0 <= Q < 2^29` (the sum is then below `9 |P| + Q + 10`).
-    /// `None` otherwise.
-    fn propagated_narrow(&self, d: &[Entry], noise: &[i64; N]) -> Option<[[i32; N]; N]> {
+    /// `P + D P + (D P)^T + D P D^T + Q` in place, in 32 bits, the same as the 64-bit
+    /// sum, when that provably fits and no variance passes its ceiling: `D` at most two
+    /// entries a row, each within 1.0 and in a pose row, `|P| < 2^27` and
+    /// `0 <= Q < 2^29` (the sum is then below `9 |P| + Q + 10`). Only the pose rows and
+    /// columns and the diagonal change. Returns false, with `P` untouched, otherwise.
+    fn propagate_narrow(&mut self, d: &[Entry], noise: &[i64; N], ceiling: &[i32; N]) -> bool {
         const POSE: usize = 3;
         let mut per_row = [0u8; POSE];
         for &(i, _, v) in d {
-            let count = per_row.get_mut(i as usize)?;
+            let Some(count) = per_row.get_mut(i as usize) else {
+                return false;
+            };
             *count += 1;
             if *count > 2 || v.unsigned_abs() > 1 << 16 {
-                return None;
+                return false;
             }
         }
-        let small = |x: &i32| x.unsigned_abs() < 1 << 27;
-        if !self.m.iter().all(|row| row.iter().all(small)) {
-            return None;
+        // The matrix is symmetric: its upper triangle bounds it.
+        let mut largest = 0u32;
+        for i in 0..N {
+            for j in i..N {
+                largest |= self.m[i][j].unsigned_abs();
+            }
+        }
+        if largest >= 1 << 27 {
+            return false;
         }
         let mut q = [0i32; N];
         for (q, &n) in q.iter_mut().zip(noise) {
-            *q = i32::try_from(n).ok().filter(|n| (0..1 << 29).contains(n))?;
+            match i32::try_from(n) {
+                Ok(n) if (0..1 << 29).contains(&n) => *q = n,
+                _ => return false,
+            }
         }
+        let m = &mut self.m;
         let mut dp = [[0i32; N]; POSE];
         for &(i, k, v) in d {
             let (i, k) = (i as usize, k as usize);
-            for (out, &p) in dp[i].iter_mut().zip(&self.m[k]) {
+            for (out, &p) in dp[i].iter_mut().zip(&m[k]) {
                 *out += mul_q16_32(p, v);
             }
         }
-        let mut next = self.m;
-        for i in 0..N {
-            next[i][i] += q[i];
-        }
+        // The pose block's change, upper triangle: `D P + (D P)^T + D P D^T`.
+        let mut block = [[0i32; POSE]; POSE];
         for i in 0..POSE {
-            for j in i..N {
-                next[i][j] += dp[i][j];
-                if j < POSE {
-                    next[i][j] += dp[j][i];
-                }
+            for j in i..POSE {
+                block[i][j] = dp[i][j] + dp[j][i];
             }
         }
         for &(j, k, v) in d {
             let (j, k) = (j as usize, k as usize);
             for i in 0..=j {
-                next[i][j] += mul_q16_32(dp[i][k], v);
+                block[i][j] += mul_q16_32(dp[i][k], v);
             }
         }
         for i in 0..N {
-            for j in 0..i {
-                next[i][j] = next[j][i];
+            let change = if i < POSE { block[i][i] } else { 0 };
+            if m[i][i] + q[i] + change > ceiling[i] {
+                return false;
             }
         }
-        Some(next)
+        for i in 0..N {
+            m[i][i] += q[i];
+        }
+        for i in 0..POSE {
+            for j in i..N {
+                let v = m[i][j] + if j < POSE { block[i][j] } else { dp[i][j] };
+                m[i][j] = v;
+                m[j][i] = v;
+            }
+        }
+        true
     }
 
     /// The 64-bit sum's noise, ceilings and narrowing back to 32 bits.
@@ -328,9 +350,16 @@ impl Covariance {
             (Some(k1), Some(a1), Some(k2), Some(a2)) if products_fit_i32(&k1, &a1, &k2, &a2) => {
                 self.update_narrow([(&k1, &a1), (&k2, &a2)])
             }
-            // Larger ones whose result fits 32 bits: four single-cycle multiplies of halves.
+            // Larger ones whose result fits 32 bits: two single-cycle multiplies a product
+            // when one side is short, four of halves otherwise.
             (Some(k1), Some(a1), Some(k2), Some(a2)) if update_fits_i32(&k1, &a1, &k2, &a2) => {
-                self.update_halves([(&k1, &a1), (&k2, &a2)])
+                if short_pair(&k1, &k2) {
+                    self.update_split::<false>([(&k1, &a1), (&k2, &a2)])
+                } else if short_pair(&a1, &a2) {
+                    self.update_split::<true>([(&k1, &a1), (&k2, &a2)])
+                } else {
+                    self.update_halves([(&k1, &a1), (&k2, &a2)])
+                }
             }
             // A working filter's gains and `P h` fit 32 bits: 32 x 32 multiplies.
             (Some(k1), Some(a1), Some(k2), Some(a2)) => self.update_32x32([(&k1, &a1), (&k2, &a2)]),
@@ -346,6 +375,38 @@ impl Covariance {
         for i in 0..N {
             for j in i..N {
                 let d = (k1[i] * a1[j] + k2[i] * a2[j] + (1 << (GAIN_SHIFT - 1))) >> GAIN_SHIFT;
+                let v = self.m[i][j].saturating_sub(d).max(-i32::MAX);
+                self.m[i][j] = v;
+                self.m[j][i] = v;
+            }
+        }
+    }
+
+    /// [`Covariance::update`]'s `P - k1 a1^T - k2 a2^T` where each rounded sum fits 32
+    /// bits ([`update_fits_i32`]) and one side is short ([`short_pair`]): the gains
+    /// (`SPLIT_GAIN == false`, the other side then split) or the `P h`s. With the long
+    /// side in [`Halves`], `x (hi 2^16 + lo)` summed over both updates and rounded is
+    /// `sum x hi + (sum x lo + 2^15) / 2^16`: the low sum is exact in 32 bits, the high
+    /// one wraps as the whole does not. Two multiplies a product where halves take four.
+    fn update_split<const SPLIT_GAIN: bool>(&mut self, updates: [(&[i32; N], &[i32; N]); 2]) {
+        let [(k1, a1), (k2, a2)] = updates;
+        let (h1, h2) = if SPLIT_GAIN {
+            (Halves::of(k1, false), Halves::of(k2, false))
+        } else {
+            (Halves::of(a1, true), Halves::of(a2, true))
+        };
+        for i in 0..N {
+            for j in i..N {
+                let (x1, x2, at) = if SPLIT_GAIN {
+                    (a1[j], a2[j], i)
+                } else {
+                    (k1[i], k2[i], j)
+                };
+                let high = x1
+                    .wrapping_mul(h1.hi[at])
+                    .wrapping_add(x2.wrapping_mul(h2.hi[at]));
+                let low = x1 * h1.lo[at] + x2 * h2.lo[at] + (1 << (GAIN_SHIFT - 1));
+                let d = high.wrapping_add(low >> GAIN_SHIFT);
                 let v = self.m[i][j].saturating_sub(d).max(-i32::MAX);
                 self.m[i][j] = v;
                 self.m[j][i] = v;
@@ -429,16 +490,25 @@ impl Covariance {
     pub fn bound(&mut self, floor: &[i32; N], ceiling: &[i32; N]) {
         for i in 0..N {
             for j in i + 1..N {
-                // Variances are positive here: squares compared, 32 x 32 bits, unless
-                // the covariance is within half the smaller variance (correlation below
-                // one half, and so below the limit), which needs no product.
+                // Variances are positive here: squares compared, unless the covariance
+                // is below `m (1 - 2^-8)` for the smaller variance `m`, which needs no
+                // product: its square is then below `m^2 (1 - 2^-9)`, and so below the
+                // limit.
                 let v = self.m[i][j].unsigned_abs();
                 let (a, b) = (self.m[i][i].max(0) as u32, self.m[j][j].max(0) as u32);
-                if v <= a.min(b) >> 1 {
+                let m = a.min(b);
+                if v < m - (m >> 8) {
                     continue;
                 }
-                let limit = wide_mul_unsigned(a, b);
-                if wide_mul_unsigned(v, v) > limit - (limit >> 9) {
+                // A converged filter's entries are under 2^16: the squares fit 32 bits.
+                let too_close = if (a | b | v) < 1 << 16 {
+                    let limit = a * b;
+                    v * v > limit - (limit >> 9)
+                } else {
+                    let limit = wide_mul_unsigned(a, b);
+                    wide_mul_unsigned(v, v) > limit - (limit >> 9)
+                };
+                if too_close {
                     for k in [i, j] {
                         let d = self.m[k][k];
                         self.m[k][k] = d.saturating_add((d >> 9) + 1);
@@ -498,9 +568,14 @@ mod tests {
     #[test]
     fn narrow_propagation_is_the_wide_one_bit_for_bit() {
         let mut rng = Lcg::new(17);
-        let ceiling = [i32::MAX; N];
         let mut narrow_taken = 0;
         for n in 0..20_000 {
+            // Mostly no ceiling; every fourth case one that some variances pass.
+            let ceiling = if n % 4 == 3 {
+                [1 << 26; N]
+            } else {
+                [i32::MAX; N]
+            };
             let bits = 10 + (n % 19) as u32;
             let (p, d, noise) = case(&mut rng, bits);
             let used = &d[..2 + n % 5];
@@ -514,9 +589,70 @@ mod tests {
             let mut fast = p;
             fast.propagate(used, &noise, &ceiling);
             assert_eq!(fast, wide, "case {n}");
-            narrow_taken += usize::from(p.propagated_narrow(used, &noise).is_some());
+            let mut narrow = p;
+            narrow_taken += usize::from(narrow.propagate_narrow(used, &noise, &ceiling));
         }
         assert!(narrow_taken > 10_000, "{narrow_taken}");
+    }
+
+    /// [`Covariance::bound`]'s correlation check as first written: every pair past half
+    /// the smaller variance compared by 64-bit squares.
+    fn bound_reference(p: &mut Covariance, floor: &[i32; N], ceiling: &[i32; N]) {
+        for i in 0..N {
+            for j in i + 1..N {
+                let v = p.m[i][j].unsigned_abs();
+                let (a, b) = (p.m[i][i].max(0) as u32, p.m[j][j].max(0) as u32);
+                if v <= a.min(b) >> 1 {
+                    continue;
+                }
+                let limit = u64::from(a) * u64::from(b);
+                if u64::from(v) * u64::from(v) > limit - (limit >> 9) {
+                    for k in [i, j] {
+                        let d = p.m[k][k];
+                        p.m[k][k] = d.saturating_add((d >> 9) + 1);
+                    }
+                }
+            }
+        }
+        p.bound_variances(floor, ceiling);
+    }
+
+    #[test]
+    fn bound_is_the_64_bit_check() {
+        let mut rng = Lcg::new(23);
+        let floor = [4, 4, 16, 1, 1, 1];
+        let ceiling = [1 << 30; N];
+        let mut raised = 0;
+        for n in 0..50_000 {
+            // Variances of every size, covariances near the limit of each pair.
+            let mut m = [[0i32; N]; N];
+            for i in 0..N {
+                m[i][i] = rng.within(1 << (4 + (n + i) % 27)).abs() as i32;
+            }
+            if n % 3 == 0 {
+                // Equal variances, where the smaller one alone decides.
+                let v = m[0][0];
+                for i in 0..N {
+                    m[i][i] = v + (rng.within(2) as i32).max(-v);
+                }
+            }
+            for i in 0..N {
+                for j in i + 1..N {
+                    let limit = ((m[i][i] as f64) * (m[j][j] as f64)).sqrt();
+                    let r = 1.0 - (rng.within(1 << 12).abs() as f64) / f64::from(1 << (6 + n % 8));
+                    let v = (limit * r) as i32 * if rng.within(1) < 0 { -1 } else { 1 };
+                    m[i][j] = v;
+                    m[j][i] = v;
+                }
+            }
+            let mut fast = Covariance { m };
+            fast.bound(&floor, &ceiling);
+            let mut slow = Covariance { m };
+            bound_reference(&mut slow, &floor, &ceiling);
+            assert_eq!(fast, slow, "case {n}");
+            raised += usize::from(fast.m != m);
+        }
+        assert!(raised > 1_000, "{raised}");
     }
 
     #[test]
@@ -540,6 +676,47 @@ mod tests {
             assert_eq!(fast, wide, "case {n}");
         }
         assert!(narrow_taken > 5_000, "{narrow_taken}");
+    }
+
+    #[test]
+    fn update_split_is_the_32x32_one_bit_for_bit() {
+        let mut rng = Lcg::new(31);
+        let mut taken = [0; 2];
+        for n in 0..40_000 {
+            let (p, _, _) = case(&mut rng, 20 + (n % 11) as u32);
+            // One side short (up to 2^15 an entry, so a pair may pass the limit), the
+            // other of any size.
+            let short_bits = 4 + (n % 12) as u32;
+            let long_bits = 8 + (n / 12 % 24) as u32;
+            let mut vector = |bits: u32| -> [i32; N] {
+                core::array::from_fn(|_| rng.within((1 << bits) - 1) as i32)
+            };
+            let (s1, s2, l1, l2) = (
+                vector(short_bits),
+                vector(short_bits),
+                vector(long_bits),
+                vector(long_bits),
+            );
+            for (split_gain, (k1, a1, k2, a2)) in
+                [(false, (s1, l1, s2, l2)), (true, (l1, s1, l2, s2))]
+            {
+                let short = if split_gain { (&a1, &a2) } else { (&k1, &k2) };
+                if !(update_fits_i32(&k1, &a1, &k2, &a2) && short_pair(short.0, short.1)) {
+                    continue;
+                }
+                taken[usize::from(split_gain)] += 1;
+                let mut fast = p;
+                if split_gain {
+                    fast.update_split::<true>([(&k1, &a1), (&k2, &a2)]);
+                } else {
+                    fast.update_split::<false>([(&k1, &a1), (&k2, &a2)]);
+                }
+                let mut wide = p;
+                wide.update_32x32([(&k1, &a1), (&k2, &a2)]);
+                assert_eq!(fast, wide, "case {n}, gain split {split_gain}");
+            }
+        }
+        assert!(taken.iter().all(|&t| t > 10_000), "{taken:?}");
     }
 
     #[test]

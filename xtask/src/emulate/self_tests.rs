@@ -42,8 +42,9 @@ pub fn install_harness_dependencies() -> Result<(), String> {
 
 /// The emulator's own self-tests, as `cargo xtask test` counts them: the VL53L5CX model
 /// against the facts of ST's ULD (`vl53l5cx.mjs --self-test`, which ends with a line
-/// `vl53l5cx model self-test: N passed, M failed`) and the harness's camera framing and
-/// fault parsing (`harness.mjs --self-test`, a line `ok   NAME` or `FAIL NAME` per check).
+/// `vl53l5cx model self-test: N passed, M failed`) and the harness's camera framing, fault
+/// parsing, hardware divider and core 1 (each core dividing on its own divider)
+/// (`harness.mjs --self-test`, a line `ok   NAME` or `FAIL NAME` per check).
 /// Echoes their output; returns (passed, failed), counted by [`self_test_counts`].
 pub fn run() -> Result<(u64, u64), String> {
     install_harness_dependencies()?;
