@@ -32,7 +32,7 @@ use host_sim::live::scene::Stage;
 use host_sim::live::{Feed, LiveSink};
 use host_sim::page::PageServer;
 use host_sim::record::{TrueCalibration, WorldOutline};
-use host_sim::run::{run, run_with_telemetry, Figures, PoseMode};
+use host_sim::run::{run, run_guarded, Figures, Guarding, PoseMode};
 use host_sim::telemetry::estimator_line;
 use host_sim::telemetry::{Recording, TelemetryWriter};
 use host_sim::truth::{parse_truth, TruthSample};
@@ -103,7 +103,12 @@ fn cmd_run(args: RunArgs) -> Result<(), Failure> {
     } else {
         None
     };
-    let output = run_with_telemetry(&scenario, args.pose, seed, writer.as_mut())
+    let guarding = if args.no_guard {
+        Guarding::Off
+    } else {
+        Guarding::On
+    };
+    let output = run_guarded(&scenario, args.pose, seed, guarding, writer.as_mut())
         .map_err(|e| Failure(2, format!("{}: {e}", args.scenario.display())))?;
     if let (Some(path), Some(writer)) = (&args.telemetry, &writer) {
         std::fs::write(path, writer.bytes())
@@ -504,6 +509,7 @@ fn print_summary(name: &str, mode: PoseMode, seed: u64, f: &Figures) {
         f.out_of_place,
         f.known_pct
     );
+    say!("collisions {}  guard stops {}", f.collisions, f.guard_stops);
     match f.first_fix_s {
         Some(t) => say!(
             "fixes taken {} (first at {t:.1} s, {} rejected); after the first fix: error <= {:.1} cm, heading <= {:.1} deg",
