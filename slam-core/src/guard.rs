@@ -133,6 +133,10 @@ impl Decision {
 
 /// Whether `command` may be driven for the next tick from `pose`, given the map and the
 /// latest depth scan (`None`: no scan, the map alone decides). See the module docs.
+///
+/// Out of line, as is its map walk: the firmware builds the core for speed, and this
+/// once-a-tick check need not be unrolled into its caller.
+#[inline(never)]
 pub fn decide<const W: usize, const H: usize>(
     config: &GuardConfig,
     pose: &Pose,
@@ -182,6 +186,7 @@ fn in_stadium(ahead: i64, across: i64, reach: i64, radius: i64) -> bool {
 
 /// The first occupied cell whose centre lies in the stadium (radius grown by half a cell)
 /// travelling along `heading` from `pose`.
+#[inline(never)]
 fn occupied_in_stadium<const W: usize, const H: usize>(
     map: &GridMap<W, H>,
     pose: &Pose,
