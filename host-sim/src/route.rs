@@ -1,7 +1,9 @@
 //! The route: steps such as "turn a full circle", "drive 7 s", run tick by tick.
 //!
 //! As in the seed, the route steers by the true heading and position, so every pose
-//! mode drives exactly the same path and only the mapper's pose differs.
+//! mode drives the same path and only the mapper's pose differs, unless the guard stops a
+//! drive: it reads the mapper's belief (see `run`), and a drive it stops is skipped
+//! ([`Route::skip`]).
 
 use crate::robot::{wrap_deg, Command, TruePose};
 use crate::scenario::RouteStep;

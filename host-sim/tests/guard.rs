@@ -106,3 +106,36 @@ fn a_body_that_meets_a_wall_stops_there_and_counts_one_collision() {
     let gap = 2000.0 - last.truth_mm.1;
     assert!((90.0..=160.0).contains(&gap), "{gap}");
 }
+
+#[test]
+fn the_body_radius_defaults_to_the_seed_robots_and_is_checked() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/seed-mat.toml");
+    let seed = match std::fs::read_to_string(&path) {
+        Ok(text) => text,
+        Err(e) => panic!("{e}"),
+    };
+    let stated = "radius_mm = 60\n";
+    assert!(seed.contains(stated));
+    let without = seed.replace(stated, "");
+    match Scenario::parse(&without) {
+        Ok(s) => assert_eq!(s.robot.radius_mm, host_sim::scenario::SEED_RADIUS_MM),
+        Err(e) => panic!("a file without robot.radius_mm must load: {e}"),
+    }
+    for (radius, field) in [
+        ("nan", "robot.radius_mm"),
+        ("0", "robot.radius_mm"),
+        ("-5", "robot.radius_mm"),
+        ("inf", "robot.radius_mm"),
+        // The start is 500 mm from the near wall: a 600 mm body would be inside it.
+        ("600", "start"),
+    ] {
+        let text = seed.replace(stated, &format!("radius_mm = {radius}\n"));
+        match Scenario::parse(&text) {
+            Ok(_) => panic!("radius {radius} must be refused"),
+            Err(e) => assert!(
+                e.to_string().contains(&format!("`{field}`")),
+                "radius {radius}: {e}"
+            ),
+        }
+    }
+}
