@@ -95,13 +95,15 @@ wire::sensor_health_counters!(
     motion_halts,
     /// PWM errors setting the motor duty.
     motor_errors,
+    /// Drives the guard stopped before an obstacle (each skipped its route leg).
+    guard_stops,
 );
 
 impl HealthCounters {
     /// One defmt line with the counters the wire does not carry.
     pub fn log_firmware_detail(&self) {
         defmt::info!(
-            "health: gyro implausible={=u32} recal={=u32} | camera ok={=u32} tags dropped={=u32} | telemetry dropped={=u32} err={=u32} | usb sent={=u32} no host={=u32} dropped={=u32} | motion halts={=u32} motor err={=u32}",
+            "health: gyro implausible={=u32} recal={=u32} | camera ok={=u32} tags dropped={=u32} | telemetry dropped={=u32} err={=u32} | usb sent={=u32} no host={=u32} dropped={=u32} | motion halts={=u32} motor err={=u32} guard stops={=u32}",
             self.gyro_implausible.get(),
             self.gyro_calibration_restarts.get(),
             self.camera_frames.get(),
@@ -113,6 +115,7 @@ impl HealthCounters {
             self.usb_dropped.get(),
             self.motion_halts.get(),
             self.motor_errors.get(),
+            self.guard_stops.get(),
         );
     }
 }

@@ -3,7 +3,8 @@
 //! `main` only brings the chip up, binds interrupts, splits the board by part
 //! ([`board::Board`]) and spawns one task per part. The tasks own their hardware and
 //! talk through [`inputs`] (sensors to the SLAM tick, gyro yaw to motion),
-//! [`slam_task::REPORTS`] (the tick's heartbeat to motion),
+//! [`slam_task::REPORTS`] (the tick's heartbeat and the guard's decision to motion),
+//! [`motion::DRIVE_SPEED_MM_S`] (the drive motion is about to make, for the guard),
 //! [`slam_task::TELEMETRY_FRAMES`] (encoded frames to telemetry),
 //! [`usb::USB_FRAMES`] (telemetry's copies for the USB serial port) and [`health::HEALTH`]
 //! (every task's fault counters).

@@ -35,10 +35,18 @@
 //! pauses (a drive's clock stops too) until reports come back; each such halt is counted.
 //! A turn that the gyro has not finished within twice its planned time plus two seconds
 //! means the gyro is not to be trusted: the route is abandoned and the motors coast.
+//!
+//! Each report carries the guard's decision (`slam_core::guard`) on the drive this task
+//! publishes in [`DRIVE_SPEED_MM_S`]: the leg being driven, or while turning the next
+//! drive, so that the first report of a drive has already judged it. A drive the guard
+//! stops coasts at once and the route goes on with its next leg (counted in
+//! `guard_stops`); turns on the spot sweep nothing new and are never stopped.
 
 use drivers::motors::{HBridge, MotorConfig, Motors, PerMille};
 use embassy_rp::pwm::{self, Pwm, PwmError, PwmOutput};
 use embassy_time::{Duration, Instant, Ticker};
+use portable_atomic::{AtomicI32, Ordering};
+use slam_core::Decision;
 
 use crate::board::{MotorPins, MOTOR_PWM_TOP};
 use crate::health::HEALTH;
@@ -126,6 +134,20 @@ pub const SEED_ROUTE: [Leg; 5] = [
     },
 ];
 
+/// The forward speed of the drive leg being driven, or while turning of the next one,
+/// millimetres per second (0: none left): what the SLAM task asks the guard about.
+pub static DRIVE_SPEED_MM_S: AtomicI32 = AtomicI32::new(0);
+
+/// The speed of the first drive leg from `legs` on, millimetres per second; 0 if none.
+fn next_drive_speed(legs: &[Leg]) -> i32 {
+    legs.iter()
+        .find_map(|leg| match *leg {
+            Leg::Drive { speed_mm_s, .. } => Some(i32::try_from(speed_mm_s).unwrap_or(0)),
+            Leg::Turn { .. } => None,
+        })
+        .unwrap_or(0)
+}
+
 /// Control period: 100 Hz, so a gyro-ended turn overshoots by at most about 0.3 degrees
 /// at 31.5 deg/s (plus the gyro's own 5 ms sample period).
 const CONTROL_PERIOD: Duration = Duration::from_millis(10);
@@ -160,7 +182,7 @@ pub async fn motion_task(
     // samples for only part of its interval, and the core takes their mean rate over the
     // whole of it. Moving then would count the turn's start twice (up to a tick's worth of
     // the turn); standing still one more tick costs 0.1 s.
-    while reports.changed().await.stale.gyro {}
+    while reports.changed().await.step.stale.gyro {}
 
     let mut pilot = Pilot {
         motors: &mut motors,
@@ -168,9 +190,12 @@ pub async fn motion_task(
         reports: &mut reports,
         last_report: Instant::now(),
         halted: false,
+        guard: Decision::Go,
     };
     for (i, leg) in SEED_ROUTE.iter().enumerate() {
         defmt::info!("motion: leg {=usize}: {}", i, leg);
+        let ahead = SEED_ROUTE.get(i..).unwrap_or(&[]);
+        DRIVE_SPEED_MM_S.store(next_drive_speed(ahead), Ordering::Relaxed);
         let finished = match *leg {
             Leg::Turn { mdeg, rate_mdps } => pilot.turn(mdeg, rate_mdps).await,
             Leg::Drive { time, speed_mm_s } => {
@@ -225,6 +250,8 @@ struct Pilot<'a> {
     last_report: Instant,
     /// Whether the motors are coasting because the SLAM loop went quiet.
     halted: bool,
+    /// The guard's decision in the newest report.
+    guard: Decision,
 }
 
 impl Pilot<'_> {
@@ -253,13 +280,20 @@ impl Pilot<'_> {
         }
     }
 
-    /// Drives at `speed_mm_s` for `time` of running (halts do not count).
+    /// Drives at `speed_mm_s` for `time` of running (halts do not count), or until the
+    /// guard stops it.
     async fn drive(&mut self, time: Duration, speed_mm_s: i64) {
         let command = forward_permille(speed_mm_s);
         let mut driven = Duration::from_ticks(0);
         let mut ticker = Ticker::every(CONTROL_PERIOD);
         let mut previous = Instant::now();
         while driven < time {
+            self.listen();
+            if let Decision::Stop(obstacle) = self.guard {
+                defmt::warn!("motion: guard stop before {}; leg skipped", obstacle);
+                HEALTH.guard_stops.bump();
+                break;
+            }
             self.command(command, 0);
             let was_running = !self.halted;
             ticker.next().await;
@@ -275,9 +309,7 @@ impl Pilot<'_> {
     /// Applies `forward`/`turn` (per mille) unless the SLAM loop has gone quiet, in which
     /// case the motors coast until it reports again.
     fn command(&mut self, forward: i64, turn: i64) {
-        if self.reports.try_changed().is_some() {
-            self.last_report = Instant::now();
-        }
+        self.listen();
         let silent = self.last_report.elapsed() > SLAM_SILENCE;
         if silent {
             if !self.halted {
@@ -297,6 +329,14 @@ impl Pilot<'_> {
         let result: Result<_, drivers::motors::Error<PwmError>> = self.motors.drive(forward, turn);
         if result.is_err() {
             HEALTH.motor_errors.bump();
+        }
+    }
+
+    /// Takes the newest SLAM report, if one came: its time and the guard's decision.
+    fn listen(&mut self) {
+        if let Some(report) = self.reports.try_changed() {
+            self.last_report = Instant::now();
+            self.guard = report.guard;
         }
     }
 

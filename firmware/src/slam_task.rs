@@ -1,6 +1,6 @@
 //! The SLAM loop: a 10 Hz tick that gathers the latest sensor readings into a
-//! [`SensorFrame`], runs the core's `step`, publishes the report, frames this tick's
-//! telemetry and feeds the watchdog.
+//! [`SensorFrame`], runs the core's `step` and the guard, publishes the report, frames
+//! this tick's telemetry and feeds the watchdog.
 //!
 //! # Why the telemetry frames are made here
 //!
@@ -23,7 +23,11 @@ use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::channel::Channel;
 use embassy_sync::watch::{Receiver, Watch};
 use embassy_time::{Duration, Instant, Ticker};
-use slam_core::{Localiser, Pose, SeedSlam, SensorFrame, SlamConfig, StepReport};
+use portable_atomic::Ordering;
+use slam_core::{
+    Decision, DriveCommand, GuardConfig, Localiser, Pose, SeedSlam, SensorFrame, SlamConfig,
+    StepReport,
+};
 use static_cell::StaticCell;
 use wire::telemetry::{encode, FirmwareVersion, Message, Schedule, Streamer, MAX_FRAME_LEN};
 
@@ -61,6 +65,25 @@ fn slam_config() -> SlamConfig {
     config.depth.beam_angles = slam_core::slam::fan(i64::from(drivers::depth::FOV_MDEG));
     config.localiser = LOCALISER;
     config
+}
+
+/// The guard's body and timing: the seed robot's, with the beams of the sensor's own fan
+/// (as [`slam_config`]'s). Its latency covers a scan up to a frame (67 ms at 15 Hz) old
+/// plus the step; its tick is the time until the next decision, a tick plus the motion
+/// task's control period within it. See `slam_core::guard`.
+const GUARD: GuardConfig = GuardConfig {
+    beam_angles: slam_core::slam::fan(drivers::depth::FOV_MDEG as i64),
+    ..GuardConfig::SEED
+};
+
+/// What each tick tells the motion task: the core's report, and the guard's word on the
+/// drive the motion task said it is about to make ([`crate::motion::DRIVE_SPEED_MM_S`]).
+#[derive(Clone, Copy)]
+pub struct TickReport {
+    /// The core's report.
+    pub step: StepReport,
+    /// Whether that drive may go on for the next tick.
+    pub guard: Decision,
 }
 
 /// How many tasks may follow the reports: the motion task (its heartbeat) and one spare
@@ -111,12 +134,12 @@ const FIRMWARE_VERSION: FirmwareVersion = FirmwareVersion {
     patch: parse_u8(env!("CARGO_PKG_VERSION_PATCH")),
 };
 
-/// Each tick's [`StepReport`]. A `Watch`: one writer (this loop), several readers that
+/// Each tick's [`TickReport`]. A `Watch`: one writer (this loop), several readers that
 /// each see the newest report and never hold the loop up; a slow reader skips reports.
-pub static REPORTS: Watch<CriticalSectionRawMutex, StepReport, REPORT_READERS> = Watch::new();
+pub static REPORTS: Watch<CriticalSectionRawMutex, TickReport, REPORT_READERS> = Watch::new();
 
 /// A follower of [`REPORTS`].
-pub type ReportReceiver = Receiver<'static, CriticalSectionRawMutex, StepReport, REPORT_READERS>;
+pub type ReportReceiver = Receiver<'static, CriticalSectionRawMutex, TickReport, REPORT_READERS>;
 
 /// The SLAM state. It holds the whole grid (4.2 KB for the seed mat's 46 x 46, 83 KB for
 /// a 10 m room), so it lives in a static, not in the task's future or on the stack.
@@ -211,6 +234,18 @@ pub async fn slam_task(watchdog: Peri<'static, WATCHDOG>, inputs: &'static Input
         }
 
         let report = slam.step(&frame);
+        // The guard, as host-sim's route asks it: this tick's pose, map and scan.
+        let command = DriveCommand {
+            speed_mm_s: crate::motion::DRIVE_SPEED_MM_S.load(Ordering::Relaxed),
+            turn_mdps: 0,
+        };
+        let decision = slam_core::decide(
+            &GUARD,
+            &report.pose,
+            slam.map(),
+            frame.depth.as_ref(),
+            command,
+        );
         health.max_step_us = health
             .max_step_us
             .max(micros(Instant::now().saturating_duration_since(started)));
@@ -218,7 +253,10 @@ pub async fn slam_task(watchdog: Peri<'static, WATCHDOG>, inputs: &'static Input
 
         watchdog.feed(WATCHDOG_TIMEOUT);
         HEALTH.watchdog_feeds.bump();
-        reports.send(report);
+        reports.send(TickReport {
+            step: report,
+            guard: decision,
+        });
 
         let framing = Instant::now();
         let time_ms = u32::try_from(started.as_millis()).unwrap_or(u32::MAX);

@@ -73,6 +73,10 @@ pub struct RunArgs {
     /// Print the figures as one JSON object.
     #[arg(long)]
     pub json: bool,
+    /// Drive the route blind: no guard stops a drive before a wall (the body still stops
+    /// at one, counted as a collision). Shows what the guard saves.
+    #[arg(long)]
+    pub no_guard: bool,
     /// Draw DIR/NAME-POSE-map.png and DIR/NAME-POSE-chart.png, creating DIR.
     #[arg(long, value_name = "DIR", value_hint = ValueHint::DirPath)]
     pub out: Option<PathBuf>,

@@ -13,8 +13,9 @@
 //! | `world.walls` | wall segments `[[x0, y0], [x1, y1]]`: the mat's edges, inner walls, boxes; with the tags and the start, on the grid (from its origin up and right) |
 //! | `world.wall_tolerance_mm` | an occupied cell whose centre is this close to a wall is in place |
 //! | `[[world.tags]]` `id`, `x_mm`, `y_mm`, `width_mm`, `facing_deg` (optional: a world may have no tags) | an AprilTag card: the depth sensor sees the card, the camera reads the face |
-//! | `start` `x_mm`, `y_mm`, `heading_deg` | the true start, clear of every wall by `wall_tolerance_mm`; the core starts believing it |
+//! | `start` `x_mm`, `y_mm`, `heading_deg` | the true start, clear of every wall by `wall_tolerance_mm` and by `robot.radius_mm`; the core starts believing it |
 //! | `robot` `max_wheel_speed_mm_s`, `wheel_base_mm` | the differential drive, when the firmware commands the motors |
+//! | `robot` `radius_mm` (optional, the seed robot's 60 when absent) | the body: a circle about the turning axis that stops at a wall it touches (a collision) and that the guard keeps clear; the start must be this far from every wall |
 //! | `[robot.slip]` `spells_per_min`, `spell_s`, `speed_loss`, `skid_mm_per_turn` (optional table: no slip when absent) | wheel slip: spells of `spell_s` at random moments in which the robot moves and turns `speed_loss` (0 to 1) slower than commanded; and while turning, the centre slides `skid_mm_per_turn` on average per full turn, each turn in a direction and by an amount (0 to twice the average) of its own |
 //! | `sensors.tof` `fov_deg`, `max_range_mm`, `noise_mm`, `dropout` | 8 beams at the centres of 8 equal zones; zones with no return |
 //! | `sensors.tof` `noise_per_m_mm` (optional, 0 when absent) | range noise that grows with distance: this much more standard deviation per metre |

@@ -35,7 +35,7 @@ use host_sim::live::scene::Stage;
 use host_sim::live::{Feed, LiveSink};
 use host_sim::page::PageServer;
 use host_sim::record::{TrueCalibration, WorldOutline};
-use host_sim::run::{run, run_with, Figures, PoseMode, RunOptions, TICK_S};
+use host_sim::run::{run, run_with, Figures, Guarding, PoseMode, RunOptions, TICK_S};
 use host_sim::telemetry::estimator_line;
 use host_sim::telemetry::{Recording, TelemetryWriter};
 use host_sim::truth::{parse_truth, TruthSample};
@@ -107,7 +107,13 @@ fn cmd_run(args: RunArgs) -> Result<(), Failure> {
     } else {
         None
     };
+    let guarding = if args.no_guard {
+        Guarding::Off
+    } else {
+        Guarding::On
+    };
     let options = RunOptions {
+        guarding,
         telemetry: writer.as_mut(),
         faults: &args.fault,
         ..RunOptions::default()
@@ -514,6 +520,7 @@ fn print_summary(name: &str, mode: PoseMode, seed: u64, f: &Figures) {
         f.known_pct,
         f.known_grid_pct
     );
+    say!("collisions {}  guard stops {}", f.collisions, f.guard_stops);
     match f.first_fix_s {
         Some(t) => say!(
             "fixes taken {} (first at {t:.1} s, {} rejected); after the first fix: error <= {:.1} cm, heading <= {:.1} deg",

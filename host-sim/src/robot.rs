@@ -107,7 +107,21 @@ pub struct Robot {
     /// True poses at the last sub-steps, newest last (the newest is `truth`), enough to
     /// look `camera_latency_us` back; before the start the robot stood at its start.
     past: VecDeque<TruePose>,
+    /// Whether the body is touching a wall: set when a wall stops a move, cleared once
+    /// the body is more than [`CONTACT_MM`] further off than its radius.
+    in_contact: bool,
+    /// Contacts since the start: each time a move was stopped by a wall the body was not
+    /// already touching.
+    collisions: u32,
 }
+
+/// How close to its radius the body's clearance must be to count as touching a wall,
+/// millimetres: a contact ends once the body has moved further off than this.
+const CONTACT_MM: f64 = 1.0;
+
+/// Halvings when finding how far a blocked move gets before the body touches the wall:
+/// 2^-20 of a sub-step's move, well below a micrometre.
+const CONTACT_HALVINGS: u32 = 20;
 
 impl Robot {
     /// A robot at the scenario's start, noise seeded by `seed`.
@@ -134,7 +148,37 @@ impl Robot {
             wheels: WheelSlip::new(scenario.robot.slip.clone()),
             camera_latency_us: camera_latency_us(scenario),
             past: VecDeque::from([start]),
+            in_contact: false,
+            collisions: 0,
         }
+    }
+
+    /// Contacts with walls since the start, one per episode of touching (a move stopped
+    /// by a wall the body was not already touching), not one per blocked sub-step.
+    pub fn collisions(&self) -> u32 {
+        self.collisions
+    }
+
+    /// The share (0 to 1) of the move by `(dx, dy)` the body can make before it touches a
+    /// wall; 1 when the whole move is clear. A body already closer than its radius (never
+    /// at a checked start) may still move away.
+    fn clear_share(&self, dx: f64, dy: f64) -> f64 {
+        let radius = self.scenario.robot.radius_mm;
+        let (x, y) = (self.truth.x_mm, self.truth.y_mm);
+        let clear = |t: f64| self.world.clearance(Vec2::new(x + dx * t, y + dy * t)) >= radius;
+        if clear(1.0) {
+            return 1.0;
+        }
+        let (mut lo, mut hi) = (0.0, 1.0);
+        for _ in 0..CONTACT_HALVINGS {
+            let mid = (lo + hi) / 2.0;
+            if clear(mid) {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        lo
     }
 
     /// The world it drives in.
@@ -167,13 +211,24 @@ impl Robot {
         while (self.substeps as u64) < target {
             let motion = self.wheels.step(command, SUBSTEP_S, &mut self.rng.slip);
             let turn = motion.turn_dps * SUBSTEP_S;
-            let dist = motion.speed_mm_s * SUBSTEP_S;
+            let mut dist = motion.speed_mm_s * SUBSTEP_S;
             let mid = Vec2::heading(self.truth.heading_deg + turn / 2.0);
+            let mut slide = motion.slide_mm;
+            // A wall stops the body where it touches; the wheels spin on (the gyro still
+            // sees the turn, the flow sensor only the motion that happened).
+            let share = self.clear_share(mid.x * dist + slide.x, mid.y * dist + slide.y);
+            if share < 1.0 {
+                dist *= share;
+                slide = Vec2::new(slide.x * share, slide.y * share);
+                if !self.in_contact {
+                    self.collisions += 1;
+                    self.in_contact = true;
+                }
+            }
             self.truth.x_mm += mid.x * dist;
             self.truth.y_mm += mid.y * dist;
             self.truth.heading_deg += turn;
             self.flow_pending_mm.0 += dist;
-            let slide = motion.slide_mm;
             if slide != Vec2::new(0.0, 0.0) {
                 self.truth.x_mm += slide.x;
                 self.truth.y_mm += slide.y;
@@ -186,6 +241,11 @@ impl Robot {
                 let (ahead, right) = flow_offset_motion(ahead_mm, right_mm, turn);
                 self.flow_pending_mm.0 += ahead;
                 self.flow_pending_mm.1 += right;
+            }
+            if self.in_contact && share == 1.0 {
+                let here = Vec2::new(self.truth.x_mm, self.truth.y_mm);
+                self.in_contact =
+                    self.world.clearance(here) < self.scenario.robot.radius_mm + CONTACT_MM;
             }
             self.substeps += 1;
             self.time_s = self.substeps as f64 * SUBSTEP_S;

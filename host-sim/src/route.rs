@@ -1,7 +1,9 @@
 //! The route: steps such as "turn a full circle", "drive 7 s", run tick by tick.
 //!
 //! As in the seed, the route steers by the true heading and position, so every pose
-//! mode drives exactly the same path and only the mapper's pose differs.
+//! mode drives the same path and only the mapper's pose differs, unless the guard stops a
+//! drive: it reads the mapper's belief (see `run`), and a drive it stops is skipped
+//! ([`Route::skip`]).
 
 use crate::robot::{wrap_deg, Command, TruePose};
 use crate::scenario::RouteStep;
@@ -34,6 +36,8 @@ pub struct Route {
     /// Progress in the current step: degrees turned, ticks driven or millimetres covered.
     progress: f64,
     last: Option<TruePose>,
+    /// Whether the current tick's step was skipped, so the tick counts for no step.
+    skipped: bool,
 }
 
 impl Route {
@@ -44,6 +48,17 @@ impl Route {
             index: 0,
             progress: 0.0,
             last: None,
+            skipped: false,
+        }
+    }
+
+    /// Gives up the current step (the guard stopped it): the robot stands this tick,
+    /// which counts for no step, and the next step starts at the next tick.
+    pub fn skip(&mut self) {
+        if self.index < self.steps.len() {
+            self.index += 1;
+            self.progress = 0.0;
+            self.skipped = true;
         }
     }
 
@@ -67,6 +82,9 @@ impl Route {
     /// Called after each tick's motion with the true pose; moves on when a step is done.
     pub fn after_tick(&mut self, truth: TruePose, tick_s: f64) {
         let last = self.last.replace(truth).unwrap_or(truth);
+        if std::mem::take(&mut self.skipped) {
+            return;
+        }
         let Some(step) = self.steps.get(self.index) else {
             return;
         };

@@ -14,7 +14,7 @@ use std::path::Path;
 /// The scenario files shipped in `host-sim/scenarios/`, by file name: what a test that
 /// holds "every shipped scenario" to something goes through (a test checks that the list
 /// and the directory agree).
-pub const SHIPPED: [&str; 8] = [
+pub const SHIPPED: [&str; 9] = [
     "seed-mat.toml",
     "seed-mat-rough.toml",
     "one-tag.toml",
@@ -23,6 +23,7 @@ pub const SHIPPED: [&str; 8] = [
     "seed-mat-no-tags.toml",
     "tag-free-room.toml",
     "corridor.toml",
+    "blocked-route.toml",
 ];
 
 /// A wall segment, `[[x0, y0], [x1, y1]]` in millimetres.
@@ -102,10 +103,22 @@ pub struct Robot {
     pub max_wheel_speed_mm_s: f64,
     /// Distance between the wheels, millimetres.
     pub wheel_base_mm: f64,
+    /// The body's radius about the turning axis, millimetres: the circle that collides
+    /// with walls, and what the guard keeps clear of them. Optional: the seed robot's
+    /// [`SEED_RADIUS_MM`].
+    #[serde(default = "seed_radius_mm")]
+    pub radius_mm: f64,
     /// How the wheels slip on the floor. Optional: absent, the robot moves exactly as
     /// commanded.
     #[serde(default)]
     pub slip: Option<Slip>,
+}
+
+/// The seed robot's body radius, millimetres (the firmware's `GuardConfig::SEED`).
+pub const SEED_RADIUS_MM: f64 = 60.0;
+
+fn seed_radius_mm() -> f64 {
+    SEED_RADIUS_MM
 }
 
 /// Wheel slip: the robot's true motion differs from what its motors are asked for.
@@ -503,6 +516,7 @@ impl Scenario {
             5000.0,
         );
         c.positive("robot.wheel_base_mm", self.robot.wheel_base_mm, 2000.0);
+        c.positive("robot.radius_mm", self.robot.radius_mm, 1000.0);
         if let Some(slip) = &self.robot.slip {
             c.range("robot.slip.spells_per_min", slip.spells_per_min, 0.0, 600.0);
             c.positive("robot.slip.spell_s", slip.spell_s, 60.0);
@@ -647,7 +661,8 @@ impl Scenario {
         c.0
     }
 
-    /// The world on the grid's side of its origin, and the start clear of every wall.
+    /// The world on the grid's side of its origin, and the start clear of every wall by
+    /// the walls' tolerance and by the body's radius.
     fn check_placement(&self, c: &mut Check) {
         let (ox, oy) = (self.grid.origin_x_mm, self.grid.origin_y_mm);
         for (field, p) in self.placed_points() {
@@ -664,20 +679,32 @@ impl Scenario {
         }
         let start = Vec2::new(self.start.x_mm, self.start.y_mm);
         let tolerance = self.world.wall_tolerance_mm;
+        let radius = self.robot.radius_mm;
         let walls = self.world.walls.len();
         // The world's solid segments are the walls, then a card per tag.
         for (i, w) in SolidWorld::new(self).walls().iter().enumerate() {
             let d = point_segment_distance(start, w.a, w.b);
+            let what = || match i.checked_sub(walls) {
+                None => format!("world.walls[{i}]"),
+                Some(t) => format!("the card of world.tags[{t}]"),
+            };
             if d < tolerance {
-                let what = match i.checked_sub(walls) {
-                    None => format!("world.walls[{i}]"),
-                    Some(t) => format!("the card of world.tags[{t}]"),
-                };
+                let what = what();
                 c.fail(
                     "start",
                     format!(
                         "({}, {}) mm is inside {what} ({d:.0} mm from it; walls are \
                          world.wall_tolerance_mm = {tolerance} mm thick)",
+                        start.x, start.y
+                    ),
+                );
+            } else if d < radius {
+                let what = what();
+                c.fail(
+                    "start",
+                    format!(
+                        "({}, {}) mm puts the body into {what} ({d:.0} mm from it, closer \
+                         than robot.radius_mm = {radius} mm)",
                         start.x, start.y
                     ),
                 );

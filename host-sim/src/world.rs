@@ -150,6 +150,15 @@ impl World {
             .any(|t| t < len - 1.0)
     }
 
+    /// How far `p` is from the nearest solid segment, tag cards included, millimetres
+    /// (infinite in a world with none).
+    pub fn clearance(&self, p: Vec2) -> f64 {
+        self.walls
+            .iter()
+            .map(|w| point_segment_distance(p, w.a, w.b))
+            .fold(f64::INFINITY, f64::min)
+    }
+
     /// Whether a point lies on something real: within the wall tolerance of a segment, or
     /// on a tag card's square (the seed's rule: 9 cm either way of a tag's centre).
     pub fn is_real(&self, p: Vec2) -> bool {

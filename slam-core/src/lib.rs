@@ -15,6 +15,7 @@ pub mod angle;
 pub mod estimator;
 pub mod frame;
 pub mod grid;
+pub mod guard;
 pub mod history;
 #[cfg(test)]
 mod lcg;
@@ -32,6 +33,7 @@ pub use frame::{
     DepthScan, FlowDelta, GyroRate, SensorFrame, TagDetection, TagDetections, BEAMS, MAX_TAGS,
 };
 pub use grid::{Evidence, GridGeometry, GridMap, LogOdds, Occupancy, OccupancyCounts};
+pub use guard::{decide, Decision, DriveCommand, GuardConfig, Obstacle};
 pub use odometry::OdometryConfig;
 pub use pose::Pose;
 pub use slam::{
