@@ -10,7 +10,7 @@ use ::foxglove::messages::{
     line_primitive, Color, CubePrimitive, CylinderPrimitive, LinePrimitive, Point3, Pose,
     Quaternion, SceneEntity, SceneUpdate, TextPrimitive, Timestamp, Vector3,
 };
-use slam_core::{CameraConfig, KnownTag, SlamConfig, TagDetection};
+use slam_core::{CameraConfig, KnownTag, TagDetection};
 
 /// The frame everything is drawn in.
 pub const MAP_FRAME: &str = "map";
@@ -44,8 +44,8 @@ impl Stage {
     /// viewed without `--scenario`.
     pub fn firmware() -> Stage {
         Stage {
-            tags: SlamConfig::SEED_TAGS.to_vec(),
-            camera: SlamConfig::seed_mat().camera,
+            tags: world::shipped::seed_robot().tags.to_vec(),
+            camera: world::shipped::seed_robot().config.camera,
         }
     }
 }
