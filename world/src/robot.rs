@@ -133,6 +133,13 @@ impl RobotWorld {
     }
 }
 
+impl RobotWorld {
+    /// Bytes the core's grid takes: a log-odds value a cell.
+    pub fn map_bytes(&self) -> usize {
+        self.columns * self.rows * std::mem::size_of::<slam_core::LogOdds>()
+    }
+}
+
 /// The tags in the core's units.
 pub fn known_tags(s: &Scenario) -> Vec<KnownTag> {
     s.world
