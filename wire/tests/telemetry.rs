@@ -4,8 +4,8 @@
 use proptest::prelude::*;
 use slam_core::{
     Angle, Calibration, Counters, DepthScan, Evidence, FixOutcome, FixRejection, FlowDelta,
-    GridGeometry, GridMap, GyroRate, Localiser, Pose, PoseCovariance, SensorFrame, SlamConfig,
-    Staleness, StepReport, TagCounters, TagDetection, TagDetections, BEAMS, MAX_TAGS,
+    GridGeometry, GridMap, GyroRate, Localiser, Pose, PoseCovariance, SensorFrame, Staleness,
+    StepReport, TagCounters, TagDetection, TagDetections, BEAMS, MAX_TAGS,
 };
 use wire::framing::{cobs_encode, crc16};
 use wire::telemetry::*;

@@ -40,8 +40,8 @@ impl Stage {
         }
     }
 
-    /// The firmware's built-in world (the seed mat's tags and camera), for a stream
-    /// viewed without `--scenario`.
+    /// The firmware's default world (the seed mat's tags and camera), for a stream
+    /// viewed without `--scenario`; a robot built for another world needs its file.
     pub fn firmware() -> Stage {
         Stage {
             tags: world::shipped::seed_robot().tags.to_vec(),

@@ -34,7 +34,8 @@ use defmt_log::LoopCounters;
 /// `cargo xtask emulate`'s options.
 #[derive(clap::Args, Clone, Debug, PartialEq, Eq)]
 pub struct EmulateArgs {
-    /// host-sim scenario file [default: host-sim/scenarios/seed-mat.toml]
+    /// host-sim scenario file: the firmware is built for its world and flies in it
+    /// [default: host-sim/scenarios/seed-mat.toml]
     #[arg(value_name = "SCENARIO")]
     pub scenario: Option<PathBuf>,
     /// Simulated seconds to run.
