@@ -159,7 +159,7 @@ mod tests {
         );
         assert_eq!((usage.flash, usage.ram, usage.excluded), (1100, 150, 0));
         assert!(usage.check().is_ok());
-        let big = Usage::from_sections(&[s(".bss", RAM_BASE, 64 * 1024, true)], None);
+        let big = Usage::from_sections(&[s(".bss", RAM_BASE, 97 * 1024, true)], None);
         assert!(big.check().unwrap_err().contains("static RAM"));
     }
 
