@@ -30,6 +30,7 @@ mod slam_task;
 mod status_led;
 mod telemetry;
 mod usb;
+mod world;
 
 bind_interrupts!(
     /// Every interrupt the firmware uses, and the driver that handles it.

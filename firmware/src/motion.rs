@@ -1,20 +1,20 @@
-//! Motion task: drives the seed's route through the DRV8833 ([`Motors`]), open loop on
-//! speed, with turns ended by the integrated gyro, as on the real robot.
+//! Motion task: drives the world file's route ([`world::ROUTE`]) through the DRV8833
+//! ([`Motors`]), open loop on speed, with turns ended by the integrated gyro, as on the
+//! real robot.
 //!
-//! # Motor model (the one place its numbers live)
+//! # Motor model
 //!
-//! At full duty (1000 per mille) a wheel runs [`WHEEL_FULL_SPEED_MM_S`] (300 mm/s), and
-//! the wheels are [`WHEEL_BASE_MM`] (100 mm) apart. Speed is taken as proportional to duty
-//! (the DRV8833 in slow decay, see `drivers::motors`), so for a forward speed `v` and a
-//! clockwise turn rate `w`, `drive(forward, turn)` gets
+//! At full duty (1000 per mille) a wheel runs [`world::WHEEL_FULL_SPEED_MM_S`], and the
+//! wheels are [`world::WHEEL_BASE_MM`] apart: the world file's `[robot]`, which the
+//! simulator and the emulator harness drive with too. Speed is taken as proportional to
+//! duty (the DRV8833 in slow decay, see `drivers::motors`), so for a forward speed `v` and
+//! a clockwise turn rate `w`, `drive(forward, turn)` gets
 //!
-//! - `forward = v / 300 mm/s * 1000`, and
-//! - `turn = (w in rad/s) * (100 mm / 2) / 300 mm/s * 1000`,
+//! - `forward = v / full speed * 1000`, and
+//! - `turn = (w in rad/s) * (base / 2) / full speed * 1000`,
 //!
 //! which `drivers::motors::mix` turns into `left = forward + turn`,
-//! `right = forward - turn`. The seed route's 86 mm/s is 287 per mille, its 31.5 deg/s
-//! turn 92 per mille. The emulator harness reads the PWM duty back and the simulator uses
-//! the same two constants, so change them here and there together.
+//! `right = forward - turn`.
 //!
 //! # PWM, for whoever reads it back
 //!
@@ -52,12 +52,7 @@ use crate::board::{MotorPins, MOTOR_PWM_TOP};
 use crate::health::HEALTH;
 use crate::inputs::Inputs;
 use crate::slam_task::ReportReceiver;
-
-/// Wheel speed at full duty, millimetres per second.
-pub const WHEEL_FULL_SPEED_MM_S: i64 = 300;
-
-/// Distance between the two wheels' contact points, millimetres.
-pub const WHEEL_BASE_MM: i64 = 100;
+use crate::world::{self, WHEEL_BASE_MM, WHEEL_FULL_SPEED_MM_S};
 
 /// Per mille of full duty for a forward speed, rounded to nearest.
 pub const fn forward_permille(speed_mm_s: i64) -> i64 {
@@ -74,11 +69,8 @@ pub const fn turn_permille(rate_mdps: i64) -> i64 {
     )
 }
 
-// The seed route's numbers, checked at compile time (see the module doc).
-const _: () = assert!(forward_permille(86) == 287);
-const _: () = assert!(turn_permille(31_500) == 92);
-const _: () = assert!(turn_permille(-31_500) == -92);
-const _: () = assert!(forward_permille(300) == 1000);
+// The model's arithmetic: full speed is full duty.
+const _: () = assert!(forward_permille(WHEEL_FULL_SPEED_MM_S) == 1000);
 
 /// `n / d` rounded to nearest, halves away from zero; `d > 0`.
 const fn div_round(n: i64, d: i64) -> i64 {
@@ -100,7 +92,7 @@ pub enum Leg {
         /// Turn rate, millidegrees per second.
         rate_mdps: i64,
     },
-    /// Drive straight at `speed_mm_s` for `time`, open loop.
+    /// Drive straight at `speed_mm_s` for `time`, open loop (0 mm/s: stand still).
     Drive {
         /// How long to drive.
         time: Duration,
@@ -108,31 +100,6 @@ pub enum Leg {
         speed_mm_s: i64,
     },
 }
-
-/// The seed's route (`host-sim/scenarios/seed-mat.toml`): three full turns at 31.5 deg/s
-/// with two 7 s drives at 86 mm/s between them, then stop.
-pub const SEED_ROUTE: [Leg; 5] = [
-    Leg::Turn {
-        mdeg: 360_000,
-        rate_mdps: 31_500,
-    },
-    Leg::Drive {
-        time: Duration::from_secs(7),
-        speed_mm_s: 86,
-    },
-    Leg::Turn {
-        mdeg: 360_000,
-        rate_mdps: 31_500,
-    },
-    Leg::Drive {
-        time: Duration::from_secs(7),
-        speed_mm_s: 86,
-    },
-    Leg::Turn {
-        mdeg: 360_000,
-        rate_mdps: 31_500,
-    },
-];
 
 /// The forward speed of the drive leg being driven, or while turning of the next one,
 /// millimetres per second (0: none left): what the SLAM task asks the guard about.
@@ -161,7 +128,7 @@ const TURN_GRACE: Duration = Duration::from_secs(2);
 type DriveMotors =
     Motors<PwmOutput<'static>, PwmOutput<'static>, PwmOutput<'static>, PwmOutput<'static>>;
 
-/// Owns the motors: waits for the gyro, drives [`SEED_ROUTE`], then coasts for good.
+/// Owns the motors: waits for the gyro, drives [`world::ROUTE`], then coasts for good.
 #[embassy_executor::task]
 pub async fn motion_task(
     pins: MotorPins,
@@ -173,9 +140,9 @@ pub async fn motion_task(
         crate::sensors::park().await
     };
     defmt::info!(
-        "motion: waiting for the gyro calibration (keep still); route: forward {=i64} per mille, turn {=i64} per mille",
-        forward_permille(86),
-        turn_permille(31_500)
+        "motion: waiting for the gyro calibration (keep still); route of {=usize} legs in {=str}",
+        world::ROUTE.len(),
+        world::NAME
     );
     inputs.gyro_ready.wait().await;
     // Then one SLAM tick with the gyro live: the tick in which calibration ended saw
@@ -192,9 +159,9 @@ pub async fn motion_task(
         halted: false,
         guard: Decision::Go,
     };
-    for (i, leg) in SEED_ROUTE.iter().enumerate() {
+    for (i, leg) in world::ROUTE.iter().enumerate() {
         defmt::info!("motion: leg {=usize}: {}", i, leg);
-        let ahead = SEED_ROUTE.get(i..).unwrap_or(&[]);
+        let ahead = world::ROUTE.get(i..).unwrap_or(&[]);
         DRIVE_SPEED_MM_S.store(next_drive_speed(ahead), Ordering::Relaxed);
         let finished = match *leg {
             Leg::Turn { mdeg, rate_mdps } => pilot.turn(mdeg, rate_mdps).await,

@@ -24,15 +24,13 @@ use embassy_sync::channel::Channel;
 use embassy_sync::watch::{Receiver, Watch};
 use embassy_time::{Duration, Instant, Ticker};
 use portable_atomic::Ordering;
-use slam_core::{
-    Decision, DriveCommand, GuardConfig, Localiser, Pose, SeedSlam, SensorFrame, SlamConfig,
-    StepReport,
-};
+use slam_core::{Decision, DriveCommand, GuardConfig, Localiser, Pose, SensorFrame, StepReport};
 use static_cell::StaticCell;
 use wire::telemetry::{encode, FirmwareVersion, Message, Schedule, Streamer, MAX_FRAME_LEN};
 
 use crate::health::HEALTH;
 use crate::inputs::Inputs;
+use crate::world::{self, WorldSlam};
 
 /// The SLAM period: 10 Hz, the rate the core's odometry and mapping are tuned for.
 pub const TICK: Duration = Duration::from_millis(100);
@@ -43,9 +41,8 @@ pub const WATCHDOG_TIMEOUT: Duration = Duration::from_millis(500);
 /// Ticks between two log lines: once a second.
 const TICKS_PER_LOG: u32 = 10;
 
-/// Where the robot is placed at power-up: the seed's start, (70, 50) cm facing the far wall
-/// where tags 11 and 12 hang (the simulator's scenario is tested to agree).
-pub const START_POSE: Pose = SlamConfig::SEED_START;
+/// Where the robot is placed at power-up: the world file's start.
+pub const START_POSE: Pose = world::START;
 
 /// What corrects the pose beyond odometry: the filter, which takes every tag sighting and
 /// learns the gyro's and the flow sensor's errors (`host-sim run --pose slam`). The
@@ -57,22 +54,13 @@ pub const LOCALISER: Localiser = if cfg!(feature = "two-tag-fix") {
     Localiser::Filter
 };
 
-/// The seed's world, its depth beams along the centres of the VL53L5CX's zone columns: the
-/// core's fan of the sensor's own width (the drivers' tests hold the seed's fan to it), and
-/// the pose corrected by [`LOCALISER`].
-fn slam_config() -> SlamConfig {
-    let mut config = SlamConfig::seed_mat();
-    config.depth.beam_angles = slam_core::slam::fan(i64::from(drivers::depth::FOV_MDEG));
-    config.localiser = LOCALISER;
-    config
-}
-
-/// The guard's body and timing: the seed robot's, with the beams of the sensor's own fan
-/// (as [`slam_config`]'s). Its latency covers a scan up to a frame (67 ms at 15 Hz) old
-/// plus the step; its tick is the time until the next decision, a tick plus the motion
-/// task's control period within it. See `slam_core::guard`.
+/// The guard's body and timing: the world's body radius, with the beams of the sensor's
+/// own fan (as `world::slam_config`'s). Its latency covers a scan up to a frame (67 ms at
+/// 15 Hz) old plus the step; its tick is the time until the next decision, a tick plus the
+/// motion task's control period within it. See `slam_core::guard`.
 const GUARD: GuardConfig = GuardConfig {
     beam_angles: slam_core::slam::fan(drivers::depth::FOV_MDEG as i64),
+    radius_mm: world::BODY_RADIUS_MM,
     ..GuardConfig::SEED
 };
 
@@ -93,8 +81,8 @@ pub const REPORT_READERS: usize = 2;
 /// The telemetry schedule at 10 Hz: a `Hello` at the first tick and every 5 s, each
 /// tick's raw inputs (with the `record-inputs` feature, on by default, so that the run can
 /// be replayed with `host-sim replay`), a `Tick` every tick (and the filter's `Filter`
-/// after it), two `MapRows` chunks (four rows of the 46 x 46 grid) every tick, so the
-/// whole map goes round every 1.2 s, and a `Health` every second. The wire crate's budget
+/// after it), two `MapRows` chunks every tick (the map goes round in a time that grows
+/// with the world's grid: 1.2 s for the seed mat's), and a `Health` every second. The wire crate's budget
 /// gives the bytes per second; about 7 % of the 921600 baud link.
 pub const TELEMETRY_SCHEDULE: Schedule = Schedule {
     hello_every_ticks: 50,
@@ -141,13 +129,13 @@ pub static REPORTS: Watch<CriticalSectionRawMutex, TickReport, REPORT_READERS> =
 /// A follower of [`REPORTS`].
 pub type ReportReceiver = Receiver<'static, CriticalSectionRawMutex, TickReport, REPORT_READERS>;
 
-/// The SLAM state. It holds the whole grid (4.2 KB for the seed mat's 46 x 46, 83 KB for
-/// a 10 m room), so it lives in a static, not in the task's future or on the stack.
+/// The SLAM state. It holds the whole grid (two bytes a cell, its size from the world
+/// file), so it lives in a static, not in the task's future or on the stack.
 ///
 /// `Slam::new` returns the state by value, so it is built on the stack once at start and
 /// moved in; the core offers only `reset` in place. A `const fn` constructor (or one that
 /// fills a `&mut MaybeUninit<Slam>`) would let a big grid start life in `.bss`.
-static SLAM: StaticCell<SeedSlam> = StaticCell::new();
+static SLAM: StaticCell<WorldSlam> = StaticCell::new();
 
 /// Health of the loop itself; the core keeps its own [`slam_core::Counters`].
 #[derive(Clone, Copy, Default, defmt::Format)]
@@ -175,14 +163,17 @@ pub async fn slam_task(watchdog: Peri<'static, WATCHDOG>, inputs: &'static Input
         None => {}
     }
 
-    let slam = match SeedSlam::new(slam_config(), START_POSE) {
+    let slam = match WorldSlam::new(world::slam_config(LOCALISER), START_POSE) {
         Ok(slam) => SLAM.init(slam),
         // The configuration is fixed at build time and tested on the host: this is a bug.
         Err(e) => defmt::panic!("slam: configuration rejected: {}", e),
     };
     defmt::info!(
-        "slam: {=usize} bytes of state, start {}",
-        core::mem::size_of::<SeedSlam>(),
+        "slam: world {=str}, {=usize} x {=usize} grid, {=usize} bytes of state, start {}",
+        world::NAME,
+        world::GRID_COLUMNS,
+        world::GRID_ROWS,
+        core::mem::size_of::<WorldSlam>(),
         START_POSE
     );
 

@@ -5,9 +5,6 @@
 use std::io::Read as _;
 use std::path::Path;
 
-/// Longest scenario file, bytes: the shipped ones are a few kilobytes.
-pub const MAX_SCENARIO_BYTES: u64 = 1 << 20;
-
 /// Longest truth file or recorded stream, bytes: an hour of the emulator's truth is a few
 /// megabytes, a robot sending its inputs fills this in about five hours.
 pub const MAX_RECORDING_BYTES: u64 = 64 << 20;

@@ -55,7 +55,7 @@ pub mod robot;
 pub mod rosmap;
 pub mod route;
 pub mod run;
-pub mod scenario;
+pub use ::world::scenario;
 pub mod score;
 pub mod serve;
 pub mod slip;

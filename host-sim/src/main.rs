@@ -35,12 +35,13 @@ use host_sim::live::scene::Stage;
 use host_sim::live::{Feed, LiveSink};
 use host_sim::page::PageServer;
 use host_sim::record::{TrueCalibration, WorldOutline};
+use host_sim::run::GRID_SIDES;
 use host_sim::run::{run, run_with, Figures, Guarding, PoseMode, RunOptions, TICK_S};
 use host_sim::telemetry::estimator_line;
 use host_sim::telemetry::{Recording, TelemetryWriter};
 use host_sim::truth::{parse_truth, TruthSample};
 use host_sim::{bounded, picture, RunRecord, Scenario};
-use slam_core::SeedSlam;
+use slam_core::Slam;
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -610,10 +611,13 @@ fn cmd_bench(args: BenchArgs) -> Result<(), Failure> {
         heading_deg: scenario.start.heading_deg,
     });
     let replays = 200;
-    let mut slam = Box::new(SeedSlam::new(config, start).map_err(|e| {
-        let e = host_sim::run::RunError::Config(e);
-        Failure(2, format!("{}: {e}", args.scenario.display()))
-    })?);
+    // The smallest grid built in: the bench's figures are the seed's.
+    let mut slam = Box::new(
+        Slam::<{ GRID_SIDES[0] }, { GRID_SIDES[0] }>::new(config, start).map_err(|e| {
+            let e = host_sim::run::RunError::Config(e);
+            Failure(2, format!("{}: {e}", args.scenario.display()))
+        })?,
+    );
     let started = Instant::now();
     let mut fixes = 0;
     for _ in 0..replays {

@@ -226,13 +226,13 @@ pub fn replay(
         Some(mode) => mode,
         None => own,
     };
-    check_grid(scenario, &hello)?;
-    let side = usize::from(hello.width);
+    let side = check_grid(scenario, &hello)?;
     let run = Run {
         scenario,
         messages: &messages,
         mode,
         robot_settings: mode == own,
+        robot_width: usize::from(hello.width),
         bad_frames: stats.bad_frames.total(),
     };
     if side == GRID_SIDES[0] {
@@ -242,16 +242,23 @@ pub fn replay(
     }
 }
 
-/// The `Hello`'s grid must be a built-in square and the scenario's geometry.
-fn check_grid(scenario: &Scenario, h: &Hello) -> Result<(), ReplayError> {
-    if h.width != h.height || !GRID_SIDES.contains(&usize::from(h.width)) {
+/// The `Hello`'s grid must fit a built-in square and be the scenario's geometry; the
+/// side of the smallest square that holds it. The robot's grid is its world's size
+/// (`world::robot::grid_size`), which need not be square: the replay maps into the
+/// built-in square from the same origin, and compares the cells the robot's grid holds.
+fn check_grid(scenario: &Scenario, h: &Hello) -> Result<usize, ReplayError> {
+    let (w, hh) = (usize::from(h.width), usize::from(h.height));
+    let Some(side) = GRID_SIDES
+        .into_iter()
+        .find(|&s| w >= 1 && hh >= 1 && w <= s && hh <= s)
+    else {
         return Err(ReplayError::Grid(format!(
             "the stream's grid is {} x {}; the core is built here with {}",
             h.width,
             h.height,
             GRID_SIDES.map(|s| format!("{s} x {s}")).join(" or ")
         )));
-    }
+    };
     let g = &scenario.grid;
     if (h.cell_mm, h.origin_x_mm, h.origin_y_mm) != (g.cell_mm, g.origin_x_mm, g.origin_y_mm) {
         return Err(ReplayError::Grid(format!(
@@ -259,7 +266,7 @@ fn check_grid(scenario: &Scenario, h: &Hello) -> Result<(), ReplayError> {
             h.cell_mm, h.origin_x_mm, h.origin_y_mm, g.cell_mm, g.origin_x_mm, g.origin_y_mm
         )));
     }
-    Ok(())
+    Ok(side)
 }
 
 /// One replay's fixed inputs.
@@ -268,6 +275,8 @@ struct Run<'a> {
     messages: &'a [Message],
     mode: PoseMode,
     robot_settings: bool,
+    /// Columns of the robot's grid, which its map chunks run along.
+    robot_width: usize,
     bad_frames: u32,
 }
 
@@ -354,7 +363,7 @@ impl Run<'_> {
                     if let Some(c) = check.as_mut() {
                         if stepped.is_some() && stepped == robot_tick {
                             c.map_chunks += 1;
-                            compare_chunk(c, stepped.unwrap_or(0), r, slam.map());
+                            compare_chunk(c, stepped.unwrap_or(0), r, slam.map(), self.robot_width);
                         }
                     }
                 }
@@ -519,19 +528,22 @@ fn compare_filter(c: &mut BitForBit, robot: &FilterState, replay: &FilterState) 
 }
 
 /// The robot's chunk against the replayed map's cells at the same tick, encoded as the
-/// robot encodes them.
+/// robot encodes them. The chunk runs along the robot's rows, `width` cells long, which
+/// the replay's grid holds from the same origin.
 fn compare_chunk<const W: usize, const H: usize>(
     c: &mut BitForBit,
     tick: u32,
     chunk: &MapRows,
     map: &GridMap<W, H>,
+    width: usize,
 ) {
     let scale = CellScale::new(map.evidence());
     let rows = map.rows();
-    let start = usize::from(chunk.first_row) * W + usize::from(chunk.first_column);
+    let width = width.max(1);
+    let start = usize::from(chunk.first_row) * width + usize::from(chunk.first_column);
     for (k, &sent) in chunk.cells.iter().enumerate() {
         let i = start + k;
-        let (column, row) = (i % W, i / W);
+        let (column, row) = (i % width, i / width);
         let mine = rows
             .get(row)
             .and_then(|r| r.get(column))

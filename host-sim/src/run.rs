@@ -13,9 +13,8 @@ use crate::score::{map_counts, out_of_place_mask, pose_errors, real_mask, MapCou
 use crate::telemetry::TelemetryWriter;
 use serde::Serialize;
 use slam_core::{
-    Angle, CameraConfig, DepthConfig, DriveCommand, FixOutcome, GridGeometry, GridMap, GuardConfig,
-    KnownTag, Localiser, MatchingConfig, Occupancy, OdometryConfig, Pose, SensorFrame, Slam,
-    SlamConfig, TagMap,
+    DriveCommand, FixOutcome, GridMap, GuardConfig, Localiser, MatchingConfig, Occupancy, Pose,
+    SensorFrame, Slam, SlamConfig, TagMap,
 };
 use std::fmt;
 use std::str::FromStr;
@@ -258,48 +257,9 @@ impl fmt::Display for RunError {
 
 impl std::error::Error for RunError {}
 
-/// The core's configuration for a scenario: what the robot's firmware would be flashed with.
-pub fn slam_config(s: &Scenario) -> SlamConfig {
-    let tags: Vec<KnownTag> = s
-        .world
-        .tags
-        .iter()
-        .map(|t| KnownTag {
-            id: t.id,
-            x_mm: t.x_mm.round() as i32,
-            y_mm: t.y_mm.round() as i32,
-        })
-        .collect();
-    let mut config = SlamConfig::seed_mat();
-    config.geometry = GridGeometry {
-        cell_mm: s.grid.cell_mm,
-        origin_x_mm: s.grid.origin_x_mm,
-        origin_y_mm: s.grid.origin_y_mm,
-    };
-    config.depth = DepthConfig {
-        beam_angles: slam_core::slam::fan((s.sensors.tof.fov_deg * 1000.0).round() as i64),
-        max_range_mm: s.grid.max_range_mm,
-    };
-    config.odometry = OdometryConfig {
-        flow_um_per_count_q16: (s.sensors.flow.um_per_count * 65536.0).round() as i32,
-        gyro_scale_ppm: 0,
-        flow_offset_um: s
-            .sensors
-            .flow
-            .offset_mm
-            .map(|mm| (mm * 1000.0).round() as i32),
-    };
-    config.camera = CameraConfig {
-        focal_centipx: (s.sensors.camera.focal_px * 100.0).round() as i32,
-        centre_centipx: (s.sensors.camera.width_px * 50.0).round() as i32,
-    };
-    config.tags = TagMap::new(&tags).unwrap_or_default();
-    // The filter refuses what this camera cannot see: beyond its range, or a tag whose
-    // listed place is outside its view (with 10 degrees for the pose's own error).
-    config.estimator.max_range_mm = s.sensors.camera.max_range_mm.round() as u32;
-    config.estimator.half_view_mdeg = (s.sensors.camera.fov_deg * 500.0 + 10_000.0).round() as u32;
-    config
-}
+/// The core's configuration for a scenario: what the robot's firmware is built with (the
+/// `world` crate's, shared with the firmware's build).
+pub use ::world::robot::slam_config;
 
 /// The guard's configuration for a scenario: its body and depth fan, a scan at most a
 /// tick old acted on for one tick, and [`GUARD_MARGIN_MM`].
@@ -324,11 +284,7 @@ fn drive_command(c: &Command) -> DriveCommand {
 
 /// A true pose in the core's integer units.
 pub fn to_core_pose(t: &TruePose) -> Pose {
-    Pose {
-        x_um: (t.x_mm * 1000.0).round() as i32,
-        y_um: (t.y_mm * 1000.0).round() as i32,
-        heading: Angle::from_millidegrees((t.heading_deg * 1000.0).round() as i64),
-    }
+    ::world::robot::core_pose(t.x_mm, t.y_mm, t.heading_deg)
 }
 
 /// What a run produced.

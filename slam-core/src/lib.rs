@@ -41,6 +41,3 @@ pub use slam::{
     StepReport,
 };
 pub use tagfix::{CameraConfig, FixConfig, FixOutcome, FixRejection, KnownTag, TagMap};
-
-/// The seed mat's grid: 46 x 46 cells of 5 cm (2 m plus a 15 cm margin each side).
-pub type SeedSlam = Slam<46, 46>;

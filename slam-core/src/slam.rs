@@ -13,7 +13,7 @@ use crate::matcher::{Match, MatcherConfig, SeedMatcher};
 use crate::matcher::{Sweep, SWEEP_TICKS};
 use crate::odometry::{self, OdometryConfig};
 use crate::pose::{mul_q16, Pose, RigidMotion};
-use crate::tagfix::{self, CameraConfig, FixConfig, FixOutcome, FixRejection, KnownTag, TagMap};
+use crate::tagfix::{self, CameraConfig, FixConfig, FixOutcome, FixRejection, TagMap};
 
 /// The depth sensor's fan and the mapper's range limit.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -120,37 +120,18 @@ pub enum ConfigError {
 }
 
 impl SlamConfig {
-    /// Where the seed's robot starts: (70, 50) cm on the mat, facing the far wall (+y).
-    pub const SEED_START: Pose = Pose::from_mm_mdeg(700, 500, 0);
-
-    /// The seed's tags: 11 and 12 on the far wall at (70, 195) and (150, 195) cm.
-    pub const SEED_TAGS: [KnownTag; 2] = [
-        KnownTag {
-            id: 11,
-            x_mm: 700,
-            y_mm: 1950,
-        },
-        KnownTag {
-            id: 12,
-            x_mm: 1500,
-            y_mm: 1950,
-        },
-    ];
-
-    /// The seed's world: 5 cm cells with a 15 cm margin round a 2 m mat, the seed's tags
-    /// ([`SlamConfig::SEED_TAGS`]) and the seed's sensors.
-    pub fn seed_mat() -> SlamConfig {
+    /// The robot's own sensors and tuning on a world's grid, with the tags whose places
+    /// it knows: the two-tag fix as localiser, no matching. The world's numbers (grid,
+    /// tags, start, route) are not the core's: the `world` crate reads them from a
+    /// scenario file and overrides the sensors' calibration from it too.
+    pub const fn on_grid(geometry: GridGeometry, tags: TagMap) -> SlamConfig {
         SlamConfig {
-            geometry: GridGeometry {
-                cell_mm: 50,
-                origin_x_mm: -150,
-                origin_y_mm: -150,
-            },
+            geometry,
             evidence: Evidence::SEED,
             depth: DepthConfig::SEED,
             odometry: OdometryConfig::NOMINAL,
             camera: CameraConfig::SEED,
-            tags: TagMap::new(&Self::SEED_TAGS).unwrap_or_default(),
+            tags,
             localiser: Localiser::TwoTagFix,
             fix: FixConfig::SEED,
             estimator: EstimatorConfig::SEED,

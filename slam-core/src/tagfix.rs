@@ -400,8 +400,17 @@ fn wide_um(mm: u32) -> u64 {
 mod tests {
     use super::*;
 
-    const T11: KnownTag = crate::slam::SlamConfig::SEED_TAGS[0];
-    const T12: KnownTag = crate::slam::SlamConfig::SEED_TAGS[1];
+    // Two tags 80 cm apart on a far wall, facing the tests' robot.
+    const T11: KnownTag = KnownTag {
+        id: 11,
+        x_mm: 700,
+        y_mm: 1950,
+    };
+    const T12: KnownTag = KnownTag {
+        id: 12,
+        x_mm: 1500,
+        y_mm: 1950,
+    };
 
     /// What a perfect camera at `pose` reports for `tag`.
     fn seen_from(pose: &Pose, tag: &KnownTag) -> TagDetection {

@@ -110,8 +110,8 @@ fn covariance_stays_a_covariance_with_wild_odometry() {
 fn sweep(wild: bool) {
     let config = SlamConfig {
         localiser: Localiser::Filter,
-        tags: TagMap::new(&SlamConfig::SEED_TAGS).unwrap(),
-        ..SlamConfig::seed_mat()
+        tags: TagMap::new(&world::shipped::seed_robot().tags).unwrap(),
+        ..world::shipped::seed_robot().config
     };
     let floor: Vec<i64> = rf::floor()
         .iter()
@@ -120,9 +120,10 @@ fn sweep(wild: bool) {
         .collect();
     assert_eq!(floor, [4, 4, 16, 1, 1, 1]);
     for seed in [1u64, 2, 3, 4] {
-        let start = SlamConfig::SEED_START;
+        let start = world::shipped::seed_robot().start;
         let mut slam: Slam<46, 46> = Slam::new(config, start).unwrap();
-        let places = SlamConfig::SEED_TAGS
+        let places = world::shipped::seed_robot()
+            .tags
             .iter()
             .map(|t| (t.id, t.x_mm as f64, t.y_mm as f64))
             .collect();

@@ -12,16 +12,20 @@ use slam_core::{
     TagCounters, TagDetection, TagMap,
 };
 
-const T11: KnownTag = SlamConfig::SEED_TAGS[0];
-const T12: KnownTag = SlamConfig::SEED_TAGS[1];
+fn t11() -> KnownTag {
+    world::shipped::seed_robot().tags[0]
+}
+fn t12() -> KnownTag {
+    world::shipped::seed_robot().tags[1]
+}
 
 type SeedSlam = Slam<46, 46>;
 
 fn filter(start: Pose) -> SeedSlam {
     let config = SlamConfig {
         localiser: Localiser::Filter,
-        tags: TagMap::new(&[T11, T12]).unwrap(),
-        ..SlamConfig::seed_mat()
+        tags: TagMap::new(&[t11(), t12()]).unwrap(),
+        ..world::shipped::seed_robot().config
     };
     Slam::new(config, start).unwrap()
 }
@@ -62,13 +66,13 @@ fn read(from: &FPose, place: (f64, f64), id: u16) -> TagDetection {
 /// sightings refused by the gate, not taken.
 #[test]
 fn a_tag_moved_30_cm_pulls_the_pose_less_than_2_cm() {
-    let start = SlamConfig::SEED_START;
+    let start = world::shipped::seed_robot().start;
     for seed in [1u64, 2, 3] {
         for k in 0..8 {
             let angle = k as f64 * std::f64::consts::FRAC_PI_4;
             let moved = (
-                T12.x_mm as f64 + 300.0 * angle.cos(),
-                T12.y_mm as f64 + 300.0 * angle.sin(),
+                t12().x_mm as f64 + 300.0 * angle.cos(),
+                t12().y_mm as f64 + 300.0 * angle.sin(),
             );
             let world = |t12: (f64, f64)| {
                 Robot::new(
@@ -78,7 +82,7 @@ fn a_tag_moved_30_cm_pulls_the_pose_less_than_2_cm() {
                     seed,
                 )
             };
-            let mut honest = world((T12.x_mm as f64, T12.y_mm as f64));
+            let mut honest = world((t12().x_mm as f64, t12().y_mm as f64));
             let mut fooled = world(moved);
             let (mut a, mut b) = (filter(start), filter(start));
             let mut worst = 0.0f64;
@@ -201,7 +205,7 @@ fn the_gate_is_chi_square_99_9_percent() {
 fn a_sighting_just_past_the_gate_is_refused_and_one_just_inside_taken() {
     let config = EstimatorConfig::SEED;
     let gate = config.gate_chi2_q8 as f64 / 256.0;
-    let start = SlamConfig::SEED_START;
+    let start = world::shipped::seed_robot().start;
     let mut slam = filter(start);
     for _ in 0..10 {
         slam.step(&still());
@@ -212,7 +216,7 @@ fn a_sighting_just_past_the_gate_is_refused_and_one_just_inside_taken() {
     predicted.step(&still());
     let p = rf::from_integer(predicted.estimator().covariance().rows());
     let then = fpose(predicted.pose());
-    let place = (T11.x_mm as f64, T11.y_mm as f64);
+    let place = (t11().x_mm as f64, t11().y_mm as f64);
     let truth = read(&then, place, 11);
     let chi2 = |d: &TagDetection| {
         rf::chi2(

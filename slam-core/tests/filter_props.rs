@@ -63,7 +63,7 @@ fn slam_config(estimator: EstimatorConfig, tags: &[KnownTag]) -> SlamConfig {
         localiser: Localiser::Filter,
         estimator,
         tags: TagMap::new(tags).unwrap(),
-        ..SlamConfig::seed_mat()
+        ..world::shipped::seed_robot().config
     }
 }
 
@@ -426,8 +426,8 @@ fn run_beside_reference(
     estimator: EstimatorConfig,
     sensors: Sensors,
 ) -> Result<Apart, TestCaseError> {
-    let start = SlamConfig::SEED_START;
-    let config = slam_config(estimator, &SlamConfig::SEED_TAGS);
+    let start = world::shipped::seed_robot().start;
+    let config = slam_config(estimator, &world::shipped::seed_robot().tags);
     let mut slam: Slam<46, 46> = Slam::new(config, start).unwrap();
     let mut reference = RefFilter::new(
         estimator,
@@ -438,7 +438,7 @@ fn run_beside_reference(
     let mut robot = Robot::new(
         fpose(&start),
         sensors,
-        true_places(&SlamConfig::SEED_TAGS),
+        true_places(&world::shipped::seed_robot().tags),
         seed,
     );
     let mut pose_block = absolute(4.0);
@@ -559,7 +559,7 @@ fn seed_process_noise_matches_the_reference() {
     const TICKS: usize = 100;
     let mut off = Vec::new();
     for (name, flow, gyro) in cases {
-        let start = SlamConfig::SEED_START;
+        let start = world::shipped::seed_robot().start;
         let mut slam: Slam<46, 46> = Slam::new(slam_config(config, &[]), start).unwrap();
         let mut reference = RefFilter::new(
             config,

@@ -17,9 +17,7 @@ mod reference;
 use proptest::prelude::*;
 use reference::{bits_to_rad, fan_angles, Class, Geometry, RefGrid};
 use slam_core::grid::CellWalk;
-use slam_core::{
-    DepthScan, Evidence, GridGeometry, GridMap, Occupancy, Pose, SensorFrame, Slam, SlamConfig,
-};
+use slam_core::{DepthScan, Evidence, GridGeometry, GridMap, Occupancy, Pose, SensorFrame, Slam};
 
 /// Per-axis slack between the core's rounded beam end points and the exact ones, in mm.
 const EPS_MM: f64 = 1.0;
@@ -32,7 +30,7 @@ fn q8_tolerance(updates: u32) -> f64 {
 }
 
 fn seed_geometry() -> GridGeometry {
-    SlamConfig::seed_mat().geometry
+    world::shipped::seed_robot().config.geometry
 }
 
 fn config() -> ProptestConfig {
@@ -118,7 +116,7 @@ proptest! {
     /// reference's wherever that is decided, and it never leaves +-2048.
     #[test]
     fn scans_match_reference(shots in proptest::collection::vec(shot(), 1..10)) {
-        let config = SlamConfig::seed_mat();
+        let config = world::shipped::seed_robot().config;
         let max = config.depth.max_range_mm as f64;
         let mut slam: Slam<46, 46> = Slam::new(config, Pose::default()).unwrap();
         let mut grid = RefGrid::new(Geometry::SEED, 46, 46);

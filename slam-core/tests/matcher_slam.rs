@@ -19,13 +19,13 @@ fn config(localiser: Localiser, matching: bool) -> SlamConfig {
     SlamConfig {
         localiser,
         matching: matching.then_some(MatchingConfig::SEED),
-        ..SlamConfig::seed_mat()
+        ..world::shipped::seed_robot().config
     }
 }
 
 #[test]
 fn matching_needs_the_filter_and_is_off_by_default() {
-    assert_eq!(SlamConfig::seed_mat().matching, None);
+    assert_eq!(world::shipped::seed_robot().config.matching, None);
     let start = Pose::from_mm_mdeg(500, 500, 0);
     for localiser in [Localiser::DeadReckoning, Localiser::TwoTagFix] {
         let r = Slam::<46, 46>::new(config(localiser, true), start);

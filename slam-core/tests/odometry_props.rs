@@ -5,7 +5,7 @@ mod reference;
 use proptest::prelude::*;
 use reference::{bits_to_rad, RefPose, RAD_PER_BIT};
 use slam_core::odometry::{self, OdometryConfig};
-use slam_core::{Angle, FlowDelta, GyroRate, Pose, SensorFrame, Slam, SlamConfig};
+use slam_core::{Angle, FlowDelta, GyroRate, Pose, SensorFrame, Slam};
 
 /// Micrometres per flow count in the nominal calibration.
 const UM_PER_COUNT: f64 = 100.0;
@@ -125,7 +125,7 @@ fn ten_minutes_of_ticks() {
         heading in any::<u32>(),
     )| {
         let start = Pose { x_um: x_mm * 1000, y_um: y_mm * 1000, heading: Angle::from_bits(heading) };
-        let mut slam: Slam<46, 46> = Slam::new(SlamConfig::seed_mat(), start).unwrap();
+        let mut slam: Slam<46, 46> = Slam::new(world::shipped::seed_robot().config, start).unwrap();
         let mut core = start;
         let mut want = ref_pose(&start);
         let (mut heading_bound, mut pos_bound) = (0.0f64, 0.0f64);

@@ -5,8 +5,7 @@ mod reference;
 
 use reference::{bits_to_rad, Geometry, RefPose};
 use slam_core::{
-    DepthScan, FixOutcome, FlowDelta, GyroRate, Occupancy, Pose, SensorFrame, Slam, SlamConfig,
-    TagDetection,
+    DepthScan, FixOutcome, FlowDelta, GyroRate, Occupancy, Pose, SensorFrame, Slam, TagDetection,
 };
 
 const DT_US: u32 = 100_000;
@@ -57,7 +56,7 @@ struct Run {
 
 fn drive(with_tags: bool) -> Run {
     let start = Pose::from_mm_mdeg(500, 500, 0);
-    let mut slam: Slam<46, 46> = Slam::new(SlamConfig::seed_mat(), start).unwrap();
+    let mut slam: Slam<46, 46> = Slam::new(world::shipped::seed_robot().config, start).unwrap();
     assert_eq!(slam.config().localiser, slam_core::Localiser::TwoTagFix);
     let mut truth = RefPose {
         x_um: 500_000.0,

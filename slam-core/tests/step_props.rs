@@ -5,8 +5,8 @@ mod reference;
 use proptest::prelude::*;
 use slam_core::odometry::{self, OdometryConfig};
 use slam_core::{
-    Angle, DepthScan, FlowDelta, GyroRate, Pose, SensorFrame, Slam, SlamConfig, TagDetection,
-    TagDetections, MAX_TAGS,
+    Angle, DepthScan, FlowDelta, GyroRate, Pose, SensorFrame, Slam, TagDetection, TagDetections,
+    MAX_TAGS,
 };
 
 fn config() -> ProptestConfig {
@@ -87,7 +87,7 @@ proptest! {
     /// pinned by the deterministic regression tests below.
     #[test]
     fn step_never_panics_and_counters_add_up(start in pose(), frames in proptest::collection::vec(frame(), 1..25)) {
-        let mut slam: Slam<46, 46> = Slam::new(SlamConfig::seed_mat(), start).unwrap();
+        let mut slam: Slam<46, 46> = Slam::new(world::shipped::seed_robot().config, start).unwrap();
         let (mut with_depth, mut no_flow, mut no_gyro) = (0u32, 0u32, 0u32);
         let mut valid = 0u32;
         for (i, f) in frames.iter().enumerate() {

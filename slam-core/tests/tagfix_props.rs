@@ -5,10 +5,14 @@ mod reference;
 use proptest::prelude::*;
 use reference::{bits_to_rad, Seen};
 use slam_core::tagfix::{self, CameraConfig, FixConfig, FixRejection, KnownTag};
-use slam_core::{Angle, FixOutcome, Pose, SensorFrame, Slam, SlamConfig, TagDetection};
+use slam_core::{Angle, FixOutcome, Pose, SensorFrame, Slam, TagDetection};
 
-const T11: KnownTag = SlamConfig::SEED_TAGS[0];
-const T12: KnownTag = SlamConfig::SEED_TAGS[1];
+fn t11() -> KnownTag {
+    world::shipped::seed_robot().tags[0]
+}
+fn t12() -> KnownTag {
+    world::shipped::seed_robot().tags[1]
+}
 
 fn config() -> ProptestConfig {
     ProptestConfig {
@@ -38,7 +42,7 @@ fn truth() -> impl Strategy<Value = Truth> {
             heading: deg.to_radians(),
         })
         .prop_filter("both tags in view", |t| {
-            [T11, T12].iter().all(|tag| {
+            [t11(), t12()].iter().all(|tag| {
                 let s = reference::see(t.x_mm, t.y_mm, t.heading, place(tag));
                 reference::bearing(s.cx_px).abs() < 55f64.to_radians()
             })
@@ -143,7 +147,7 @@ proptest! {
     /// the truth.
     #[test]
     fn fix_matches_truth_and_reference(t in truth(), swap in any::<bool>()) {
-        let (mut a, mut b, mut ta, mut tb) = (detect(&t, &T11), detect(&t, &T12), T11, T12);
+        let (mut a, mut b, mut ta, mut tb) = (detect(&t, &t11()), detect(&t, &t12()), t11(), t12());
         if swap {
             core::mem::swap(&mut a, &mut b);
             core::mem::swap(&mut ta, &mut tb);
@@ -228,17 +232,17 @@ proptest! {
             y_um: (t.y_mm * 1000.0).round() as i32,
             heading: Angle::from_bits((t.heading.rem_euclid(std::f64::consts::TAU) / reference::RAD_PER_BIT) as u32),
         };
-        let mut slam: Slam<46, 46> = Slam::new(SlamConfig::seed_mat(), start).unwrap();
+        let mut slam: Slam<46, 46> = Slam::new(world::shipped::seed_robot().config, start).unwrap();
         let mut frame = SensorFrame::empty(100_000);
         for (id, cx, d) in &junk {
             frame.tags.push(TagDetection { id: *id, cx_centipx: *cx, distance_mm: *d }).unwrap();
         }
-        let (a, b) = (detect(&t, &T11), detect(&t, &T12));
+        let (a, b) = (detect(&t, &t11()), detect(&t, &t12()));
         frame.tags.push(a).unwrap();
         frame.tags.push(b).unwrap();
         let report = slam.step(&frame);
         prop_assert_eq!(report.fix, FixOutcome::Taken);
-        let fix = tagfix::two_tag_pose((&a, &T11), (&b, &T12), &CameraConfig::SEED, &FixConfig::SEED).unwrap();
+        let fix = tagfix::two_tag_pose((&a, &t11()), (&b, &t12()), &CameraConfig::SEED, &FixConfig::SEED).unwrap();
         prop_assert_eq!(report.pose, fix);
         prop_assert_eq!(report.counters.fixes_taken, 1);
     }
@@ -247,22 +251,22 @@ proptest! {
     /// alone, a seen baseline twice the true one.
     #[test]
     fn degenerate_sightings_are_refused(t in truth()) {
-        let (a, b) = (detect(&t, &T11), detect(&t, &T12));
+        let (a, b) = (detect(&t, &t11()), detect(&t, &t12()));
         let cam = CameraConfig::SEED;
         let cfg = FixConfig::SEED;
         // The same id twice: best_pair finds no pair; forced through two_tag_pose the true
         // baseline is zero.
-        prop_assert!(tagfix::best_pair(&[a, a], &SlamConfig::seed_mat().tags).is_none());
-        prop_assert_eq!(tagfix::two_tag_pose((&a, &T11), (&a, &T11), &cam, &cfg), Err(FixRejection::Geometry));
+        prop_assert!(tagfix::best_pair(&[a, a], &world::shipped::seed_robot().config.tags).is_none());
+        prop_assert_eq!(tagfix::two_tag_pose((&a, &t11()), (&a, &t11()), &cam, &cfg), Err(FixRejection::Geometry));
         // The seen baseline twice the true one (both ranges doubled).
         let (a2, b2) = (
             TagDetection { distance_mm: a.distance_mm * 2, ..a },
             TagDetection { distance_mm: b.distance_mm * 2, ..b },
         );
-        prop_assert_eq!(tagfix::two_tag_pose((&a2, &T11), (&b2, &T12), &cam, &cfg), Err(FixRejection::Geometry));
+        prop_assert_eq!(tagfix::two_tag_pose((&a2, &t11()), (&b2, &t12()), &cam, &cfg), Err(FixRejection::Geometry));
 
         let step = |tags: &[TagDetection]| {
-            let mut slam: Slam<46, 46> = Slam::new(SlamConfig::seed_mat(), Pose::from_mm_mdeg(1000, 800, 0)).unwrap();
+            let mut slam: Slam<46, 46> = Slam::new(world::shipped::seed_robot().config, Pose::from_mm_mdeg(1000, 800, 0)).unwrap();
             let mut frame = SensorFrame::empty(100_000);
             frame.tags = tags.iter().copied().collect();
             let report = slam.step(&frame);
@@ -296,16 +300,19 @@ fn tag_at_distance_zero_gives_no_fix() {
         y_mm: 1150.0,
         heading: 0.0,
     };
-    let (mut a, b) = (detect(&t, &T11), detect(&t, &T12));
+    let (mut a, b) = (detect(&t, &t11()), detect(&t, &t12()));
     a.distance_mm = 0;
     let fix = tagfix::two_tag_pose(
-        (&a, &T11),
-        (&b, &T12),
+        (&a, &t11()),
+        (&b, &t12()),
         &CameraConfig::SEED,
         &FixConfig::SEED,
     );
-    let mut slam: Slam<46, 46> =
-        Slam::new(SlamConfig::seed_mat(), Pose::from_mm_mdeg(1500, 1150, 0)).unwrap();
+    let mut slam: Slam<46, 46> = Slam::new(
+        world::shipped::seed_robot().config,
+        Pose::from_mm_mdeg(1500, 1150, 0),
+    )
+    .unwrap();
     let mut frame = SensorFrame::empty(100_000);
     frame.tags = [a, b].into_iter().collect();
     let outcomes: Vec<FixOutcome> = (0..6).map(|_| slam.step(&frame).fix).collect();
@@ -325,7 +332,7 @@ fn zero_ranges_elsewhere_are_refused() {
         y_mm: 300.0,
         heading: 0.0,
     };
-    let (a, b) = (detect(&t, &T11), detect(&t, &T12));
+    let (a, b) = (detect(&t, &t11()), detect(&t, &t12()));
     for (a, b) in [
         (
             TagDetection {
@@ -347,8 +354,8 @@ fn zero_ranges_elsewhere_are_refused() {
     ] {
         assert_eq!(
             tagfix::two_tag_pose(
-                (&a, &T11),
-                (&b, &T12),
+                (&a, &t11()),
+                (&b, &t12()),
                 &CameraConfig::SEED,
                 &FixConfig::SEED
             ),
@@ -370,7 +377,7 @@ fn fix_error_survey() {
             y_mm: 150.0 + 1350.0 * unit(),
             heading: (-50.0 + 100.0 * unit()).to_radians(),
         };
-        let in_view = [T11, T12].iter().all(|tag| {
+        let in_view = [t11(), t12()].iter().all(|tag| {
             let s = reference::see(t.x_mm, t.y_mm, t.heading, place(tag));
             reference::bearing(s.cx_px).abs() < 55f64.to_radians()
         });
@@ -378,15 +385,15 @@ fn fix_error_survey() {
             continue;
         }
         n += 1;
-        let (a, b) = (detect(&t, &T11), detect(&t, &T12));
+        let (a, b) = (detect(&t, &t11()), detect(&t, &t12()));
         let fix = tagfix::two_tag_pose(
-            (&a, &T11),
-            (&b, &T12),
+            (&a, &t11()),
+            (&b, &t12()),
             &CameraConfig::SEED,
             &FixConfig::SEED,
         )
         .unwrap();
-        let want = reference::two_tag_fix(seen(&a), place(&T11), seen(&b), place(&T12));
+        let want = reference::two_tag_fix(seen(&a), place(&t11()), seen(&b), place(&t12()));
         let (p, h) = errors(&fix, want.x_mm, want.y_mm, want.heading);
         wr = (wr.0.max(p), wr.1.max(h));
         let (p, h) = errors(&fix, t.x_mm, t.y_mm, t.heading);

@@ -158,13 +158,13 @@ fn the_same_seed_gives_the_same_run() {
 #[test]
 fn the_firmware_and_the_scenario_agree_on_the_world() {
     let scenario = common::seed_scenario();
-    let config = slam_core::SlamConfig::seed_mat();
+    let config = world::shipped::seed_robot().config;
     let start = host_sim::run::to_core_pose(&host_sim::robot::TruePose {
         x_mm: scenario.start.x_mm,
         y_mm: scenario.start.y_mm,
         heading_deg: scenario.start.heading_deg,
     });
-    assert_eq!(start, slam_core::SlamConfig::SEED_START);
+    assert_eq!(start, world::shipped::seed_robot().start);
     assert_eq!(
         host_sim::run::slam_config(&scenario),
         config,

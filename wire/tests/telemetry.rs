@@ -4,8 +4,8 @@
 use proptest::prelude::*;
 use slam_core::{
     Angle, Calibration, Counters, DepthScan, Evidence, FixOutcome, FixRejection, FlowDelta,
-    GridGeometry, GridMap, GyroRate, Localiser, Pose, PoseCovariance, SensorFrame, SlamConfig,
-    Staleness, StepReport, TagCounters, TagDetection, TagDetections, BEAMS, MAX_TAGS,
+    GridGeometry, GridMap, GyroRate, Localiser, Pose, PoseCovariance, SensorFrame, Staleness,
+    StepReport, TagCounters, TagDetection, TagDetections, BEAMS, MAX_TAGS,
 };
 use wire::framing::{cobs_encode, crc16};
 use wire::telemetry::*;
@@ -593,7 +593,7 @@ fn overlong_frame_is_dropped_and_the_next_decodes() {
 }
 
 fn seed_map() -> GridMap<46, 46> {
-    let mut map = GridMap::new(SlamConfig::seed_mat().geometry, Evidence::SEED);
+    let mut map = GridMap::new(world::shipped::seed_robot().config.geometry, Evidence::SEED);
     for i in 0..46 {
         map.add(i, i, 300);
         map.add(45 - i, i, -300);

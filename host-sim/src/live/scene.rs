@@ -10,7 +10,7 @@ use ::foxglove::messages::{
     line_primitive, Color, CubePrimitive, CylinderPrimitive, LinePrimitive, Point3, Pose,
     Quaternion, SceneEntity, SceneUpdate, TextPrimitive, Timestamp, Vector3,
 };
-use slam_core::{CameraConfig, KnownTag, SlamConfig, TagDetection};
+use slam_core::{CameraConfig, KnownTag, TagDetection};
 
 /// The frame everything is drawn in.
 pub const MAP_FRAME: &str = "map";
@@ -40,12 +40,12 @@ impl Stage {
         }
     }
 
-    /// The firmware's built-in world (the seed mat's tags and camera), for a stream
-    /// viewed without `--scenario`.
+    /// The firmware's default world (the seed mat's tags and camera), for a stream
+    /// viewed without `--scenario`; a robot built for another world needs its file.
     pub fn firmware() -> Stage {
         Stage {
-            tags: SlamConfig::SEED_TAGS.to_vec(),
-            camera: SlamConfig::seed_mat().camera,
+            tags: world::shipped::seed_robot().tags.to_vec(),
+            camera: world::shipped::seed_robot().config.camera,
         }
     }
 }

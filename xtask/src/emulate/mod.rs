@@ -2,7 +2,8 @@
 //! simulator's world.
 //!
 //! Steps: install the harness's npm dependencies from its lock file if they are missing,
-//! build the firmware (`cargo xtask firmware`), build `host-sim`, run
+//! build the firmware for the scenario's world (`cargo xtask firmware --world SCENARIO`),
+//! build `host-sim`, run
 //! `tests/emulator/harness.mjs` (which starts `host-sim serve` itself and talks to it over
 //! two FIFOs, so the world is read at exactly the simulated instant the firmware asks),
 //! then decode the firmware's defmt log ([`defmt_log`], with the table from the ELF; written as text
@@ -35,7 +36,8 @@ use defmt_log::LoopCounters;
 /// `cargo xtask emulate`'s options.
 #[derive(clap::Args, Clone, Debug, PartialEq, Eq)]
 pub struct EmulateArgs {
-    /// host-sim scenario file [default: host-sim/scenarios/seed-mat.toml]
+    /// host-sim scenario file: the firmware is built for its world and flies in it
+    /// [default: host-sim/scenarios/seed-mat.toml]
     #[arg(value_name = "SCENARIO")]
     pub scenario: Option<PathBuf>,
     /// Simulated seconds to run.
@@ -79,10 +81,12 @@ fn positive_number(text: &str) -> Result<String, String> {
 /// `cargo xtask emulate`.
 pub fn run(args: &EmulateArgs) -> Result<(), String> {
     let root = workspace_root();
-    let scenario = args
-        .scenario
-        .clone()
-        .unwrap_or_else(|| root.join("host-sim/scenarios/seed-mat.toml"));
+    // The firmware is built for the world it flies in.
+    let firmware_args = FirmwareArgs {
+        world: args.scenario.clone(),
+        ..FirmwareArgs::default()
+    };
+    let scenario = firmware_args.world_file();
     let harness_dir = self_tests::harness_dir();
     let out_dir = match &args.pose {
         Some(pose) => root.join("out/emulator").join(pose),
@@ -98,9 +102,9 @@ pub fn run(args: &EmulateArgs) -> Result<(), String> {
     // With --json, stdout must hold one JSON object; `firmware::run` prints its size
     // table there, so it runs as `xtask firmware` in a child with stdout sent to stderr.
     let built = if args.json {
-        firmware_quietly()
+        firmware_quietly(&scenario)
     } else {
-        firmware::run(&FirmwareArgs::default())
+        firmware::run(&firmware_args)
     };
     if let Err(e) = built {
         // The budget check fails after a good build; the image is still worth running.
@@ -269,13 +273,16 @@ fn read_defmt_log(elf: &Path, log: &Path) -> Result<Vec<defmt_log::LogLine>, Str
     })
 }
 
-/// `cargo xtask firmware` (this very binary), its stdout redirected to stderr.
-fn firmware_quietly() -> Result<(), String> {
+/// `cargo xtask firmware --world WORLD` (this very binary), its stdout redirected to
+/// stderr.
+fn firmware_quietly(world: &Path) -> Result<(), String> {
     let exe = std::env::current_exe().map_err(|e| format!("cannot find xtask itself: {e}"))?;
     run_in(
         &workspace_root(),
         Command::new(exe)
             .arg("firmware")
+            .arg("--world")
+            .arg(world)
             .stdout(Stdio::from(stderr_fd()?)),
     )
 }

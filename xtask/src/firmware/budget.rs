@@ -10,7 +10,9 @@ use super::image::{Section, Symbol, FLASH_BASE, FLASH_SIZE, RAM_BASE, RAM_SIZE};
 
 /// Budget: the firmware must stay well inside the chip so the map and logs have room.
 const FLASH_BUDGET: u64 = 128 * 1024;
-const RAM_BUDGET: u64 = 48 * 1024;
+/// Static RAM, the world's grid included (issue 12: a 6 m room at 5 cm, and more, must
+/// fit); the stack has the rest of the chip's 264 KB.
+const RAM_BUDGET: u64 = 96 * 1024;
 
 /// Flash and static RAM use, from the section headers.
 pub struct Usage {
@@ -157,7 +159,7 @@ mod tests {
         );
         assert_eq!((usage.flash, usage.ram, usage.excluded), (1100, 150, 0));
         assert!(usage.check().is_ok());
-        let big = Usage::from_sections(&[s(".bss", RAM_BASE, 64 * 1024, true)], None);
+        let big = Usage::from_sections(&[s(".bss", RAM_BASE, 97 * 1024, true)], None);
         assert!(big.check().unwrap_err().contains("static RAM"));
     }
 

@@ -1,6 +1,11 @@
-//! `cargo xtask firmware [--check-only] [--no-default-features] [--features LIST]`: builds
-//! the RP2040 firmware, writes its UF2 and flat binary images next to the ELF
-//! ([`image`]), and checks its flash and RAM budget ([`budget`]).
+//! `cargo xtask firmware [--world FILE] [--check-only] [--no-default-features] [--features
+//! LIST]`: builds the RP2040 firmware for a world, writes its UF2 and flat binary images
+//! next to the ELF ([`image`]), and checks its flash and RAM budget ([`budget`]).
+//!
+//! The world is a scenario file (default `host-sim/scenarios/seed-mat.toml`): the
+//! firmware's `build.rs` reads the file `BUGBOT_WORLD` names, which this sets, and the
+//! grid's size, and so the RAM, comes from it. The file is checked here first, with the
+//! same errors, so a bad world fails before the toolchain is set up.
 //!
 //! Two toolchains can build it, rustup's or Debian's ([`toolchain`];
 //! `BUGBOT_FIRMWARE_TOOLCHAIN=rustup|debian` forces one), and both link through flip-link,
@@ -48,12 +53,19 @@ use crate::{run_in, workspace_root};
 pub const TARGET: &str = "thumbv6m-none-eabi";
 /// The firmware's binary name (`[[bin]]` in `firmware/Cargo.toml`).
 const BIN_NAME: &str = "bugbot-firmware";
+/// The world a firmware is built for when none is named, from the workspace root.
+pub const DEFAULT_WORLD: &str = "host-sim/scenarios/seed-mat.toml";
+/// The variable the firmware's `build.rs` reads the world file's path from.
+const WORLD_VAR: &str = "BUGBOT_WORLD";
 /// The firmware feature that needs the C toolchain, on by default.
 const DEPTH_FEATURE: &str = "vl53l5cx";
 
 /// `cargo xtask firmware`'s options.
 #[derive(clap::Args, Clone, Debug, Default, PartialEq, Eq)]
 pub struct FirmwareArgs {
+    /// The world to build for: a scenario file [default: host-sim/scenarios/seed-mat.toml]
+    #[arg(long, value_name = "FILE")]
+    pub world: Option<PathBuf>,
     /// Type-check only (`cargo check`): no image, no size table.
     #[arg(long)]
     pub check_only: bool,
@@ -66,6 +78,23 @@ pub struct FirmwareArgs {
 }
 
 impl FirmwareArgs {
+    /// The world file, absolute: `--world` from the current directory, or the seed mat.
+    pub fn world_file(&self) -> PathBuf {
+        match &self.world {
+            Some(p) if p.is_absolute() => p.clone(),
+            Some(p) => std::env::current_dir().map_or_else(|_| p.clone(), |d| d.join(p)),
+            None => workspace_root().join(DEFAULT_WORLD),
+        }
+    }
+
+    /// The world checked as the firmware's build checks it, with its grid's size.
+    fn robot_world(&self) -> Result<world::RobotWorld, String> {
+        let path = self.world_file();
+        let bad = |e: String| format!("world {}: {e}", path.display());
+        let scenario = world::Scenario::load(&path).map_err(|e| bad(e.to_string()))?;
+        world::RobotWorld::of(&scenario).map_err(|e| bad(e.to_string()))
+    }
+
     /// The feature flags, for cargo as given.
     fn cargo_args(&self) -> Vec<String> {
         let mut args = Vec::new();
@@ -128,6 +157,7 @@ impl FirmwareCargo {
                 }
             }
         }
+        cmd.env(WORLD_VAR, args.world_file());
         cmd.arg("--target-dir").arg(&target_dir);
         Ok(FirmwareCargo {
             toolchain,
@@ -144,6 +174,7 @@ impl FirmwareCargo {
 /// `cargo xtask firmware`: builds the firmware, writes its images and checks its budget.
 pub fn run(args: &FirmwareArgs) -> Result<(), String> {
     let check_only = args.check_only;
+    let robot = args.robot_world()?;
     let build = FirmwareCargo::new(if check_only { "check" } else { "build" }, args)?;
     let (toolchain, target_dir) = (build.toolchain, build.target_dir.clone());
     build.run()?;
@@ -164,6 +195,15 @@ pub fn run(args: &FirmwareArgs) -> Result<(), String> {
 
     let usage = Usage::from_sections(&elf.sections, elf.sensor_image);
     println!();
+    println!(
+        "world {} ({}): grid {} x {} cells of {} mm, {} bytes of map",
+        robot.name,
+        args.world_file().display(),
+        robot.columns,
+        robot.rows,
+        robot.config.geometry.cell_mm,
+        robot.map_bytes()
+    );
     println!("firmware images ({toolchain} toolchain):");
     println!("  ELF  {}", elf_path.display());
     println!(
