@@ -351,12 +351,12 @@ impl Covariance {
                 self.update_narrow([(&k1, &a1), (&k2, &a2)])
             }
             // Larger ones whose result fits 32 bits: two single-cycle multiplies a product
-            // when one side is short, four of halves otherwise.
+            // when the gains are short (a sighting's mostly are), four of halves otherwise.
+            // Splitting the gains instead when the `P h`s are short is rare, and its copy
+            // of the loop costs more flash than the budget has.
             (Some(k1), Some(a1), Some(k2), Some(a2)) if update_fits_i32(&k1, &a1, &k2, &a2) => {
                 if short_pair(&k1, &k2) {
                     self.update_split::<false>([(&k1, &a1), (&k2, &a2)])
-                } else if short_pair(&a1, &a2) {
-                    self.update_split::<true>([(&k1, &a1), (&k2, &a2)])
                 } else {
                     self.update_halves([(&k1, &a1), (&k2, &a2)])
                 }
