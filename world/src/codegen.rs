@@ -93,8 +93,14 @@ pub fn firmware_constants(world: &RobotWorld, source: &str) -> String {
         "pub const WHEEL_BASE_MM: i64 = {};",
         world.drive.wheel_base_mm
     ));
-    line("/// The body's radius about the turning axis, millimetres: what the guard keeps clear.".into());
-    line(format!("pub const BODY_RADIUS_MM: u16 = {};", world.drive.radius_mm));
+    line(
+        "/// The body's radius about the turning axis, millimetres: what the guard keeps clear."
+            .into(),
+    );
+    line(format!(
+        "pub const BODY_RADIUS_MM: u16 = {};",
+        world.drive.radius_mm
+    ));
     line("/// The route, in order.".into());
     let mut legs = String::new();
     for leg in &world.route {
