@@ -7,7 +7,7 @@
 //!
 //! | request | reply |
 //! |---|---|
-//! | `{"cmd":"advance","t_s":T,"left":L,"right":R}` | `{"t_s","x_mm","y_mm","heading_deg"}`: the world moved on to time `T` s with wheel duties `L`, `R` in [-1, 1] (positive forward) |
+//! | `{"cmd":"advance","t_s":T,"left":L,"right":R}` | `{"t_s","x_mm","y_mm","heading_deg","collisions"}`: the world moved on to time `T` s with wheel duties `L`, `R` in [-1, 1] (positive forward); `collisions` counts the body's contacts with a wall so far |
 //! | `{"cmd":"flow"}` | `{"forward_counts","right_counts","squal"}`: counts since the last flow read |
 //! | `{"cmd":"gyro"}` | `{"rate_mdps"}`: the newest 200 Hz yaw rate sample, bias and noise included |
 //! | `{"cmd":"depth"}` | `{"ranges_mm":[8 x (mm or null)]}`: the 8 beams, left to right |
@@ -109,6 +109,7 @@ struct TruthReply {
     x_mm: f64,
     y_mm: f64,
     heading_deg: f64,
+    collisions: u32,
 }
 
 #[derive(Serialize)]
@@ -142,6 +143,7 @@ pub fn answer(robot: &mut Robot, scenario: &Scenario, line: &str) -> String {
             x_mm: t.x_mm,
             y_mm: t.y_mm,
             heading_deg: t.heading_deg,
+            collisions: robot.collisions(),
         })
     };
     let reply = match request {
@@ -312,6 +314,7 @@ mod tests {
             "{}",
             lines[0]
         );
+        assert_eq!(lines[0]["collisions"].as_u64(), Some(0), "{}", lines[0]);
         // 150 mm at 100 um per count, 4 % short.
         let counts = lines[1]["forward_counts"].as_i64().unwrap_or(0);
         assert!((counts - 1440).abs() < 20, "{counts}");

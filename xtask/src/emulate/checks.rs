@@ -120,10 +120,10 @@ stale on {depth_stale} ticks, {} beams mapped, known {:.1} %; flow stale on {} t
     Ok((passed, checks.len() as u64 - passed))
 }
 
-/// The checks every whole-route run makes: 10 Hz kept over `seconds` (at most one tick
-/// in a hundred lost), no overrun by the emulator's count or the firmware's own, and no
-/// reset (the firmware counted every tick the viewer got, and the stream never started
-/// over).
+/// The checks every whole-route run makes: no collision with a wall (the world's count),
+/// 10 Hz kept over `seconds` (at most one tick in a hundred lost), no overrun by the
+/// emulator's count or the firmware's own, and no reset (the firmware counted every tick
+/// the viewer got, and the stream never started over).
 fn timing_checks(
     e: &serde_json::Value,
     v: &serde_json::Value,
@@ -133,7 +133,12 @@ fn timing_checks(
     let ticks = num(&v["ticks"]);
     let most = (seconds * 10.0).floor();
     let least = (most * 0.99).floor();
+    let collisions = num(&e["truth"]["collisions"]);
     vec![
+        (
+            format!("the body never touched a wall: 0 collisions ({collisions})"),
+            collisions == 0.0,
+        ),
         (
             format!("the loop kept 10 Hz: {least} to {most} ticks in {seconds} s ({ticks})"),
             (least..=most).contains(&ticks),
