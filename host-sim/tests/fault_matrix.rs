@@ -1,11 +1,8 @@
 //! The fault matrix on the seed mat (issue 14): every sensor failing every way for 3 s,
 //! 5 s into the route, on seeds 1 to 20, beside the same runs without the fault.
 
-use std::path::Path;
-
 use host_sim::fault_matrix::{run_matrix, table, CaseFigures, Window};
 use host_sim::run::PoseMode;
-use host_sim::scenario::Scenario;
 
 const WINDOW: Window = Window {
     start_s: 5.0,
@@ -13,8 +10,7 @@ const WINDOW: Window = Window {
 };
 
 fn matrix() -> Vec<CaseFigures> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/seed-mat.toml");
-    let scenario = Scenario::load(&path).expect("seed mat");
+    let scenario = world::shipped::scenario("seed-mat.toml");
     let seeds: Vec<u64> = (1..=20).collect();
     run_matrix(&scenario, PoseMode::Filter, &seeds, WINDOW, None).expect("matrix")
 }

@@ -7,8 +7,8 @@
 
 use host_sim::consistency::{median, scored_bounds};
 use host_sim::scenario::SHIPPED;
-use host_sim::{run, Figures, PoseMode, Scenario};
-use std::path::Path;
+use host_sim::{run, Figures, PoseMode};
+use world::shipped::scenario;
 
 const SEEDS: std::ops::RangeInclusive<u64> = 1..=20;
 
@@ -17,17 +17,6 @@ const FILTERS: [PoseMode; 2] = [PoseMode::Filter, PoseMode::Slam];
 
 fn runs(name: &str, mode: PoseMode) -> Vec<Figures> {
     runs_with(name, mode, |out| out.figures)
-}
-
-/// The shipped scenario `name`.
-fn scenario(name: &str) -> Scenario {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenarios")
-        .join(name);
-    match Scenario::load(&path) {
-        Ok(s) => s,
-        Err(e) => panic!("{name}: {e}"),
-    }
 }
 
 /// `keep` of each seed's run of the scenario `name`.

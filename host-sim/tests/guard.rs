@@ -7,21 +7,12 @@ use host_sim::run::{run_with, Guarding, RunOptions};
 use host_sim::scenario::SHIPPED;
 use host_sim::{Figures, PoseMode, Scenario};
 use std::path::Path;
+use world::shipped::scenario;
 
 const SEEDS: std::ops::RangeInclusive<u64> = 1..=20;
 
 /// The shipped scenario whose route would run into a box and a wall.
 const BLOCKED: &str = "blocked-route.toml";
-
-fn scenario(name: &str) -> Scenario {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenarios")
-        .join(name);
-    match Scenario::load(&path) {
-        Ok(s) => s,
-        Err(e) => panic!("{name}: {e}"),
-    }
-}
 
 fn guarded(guarding: Guarding) -> RunOptions<'static> {
     RunOptions {

@@ -27,6 +27,16 @@ pub fn directory() -> std::path::PathBuf {
         .join("scenarios")
 }
 
+/// The shipped scenario file `name` (one of [`SHIPPED`]), for tests. A shipped file that
+/// does not load is a broken checkout, not input, so it panics naming the file.
+pub fn scenario(name: &str) -> Scenario {
+    let path = directory().join(name);
+    match Scenario::load(&path) {
+        Ok(s) => s,
+        Err(e) => panic!("{}: {e}", path.display()),
+    }
+}
+
 /// `host-sim/scenarios/seed-mat.toml`, built in.
 pub const SEED_MAT_TOML: &str = include_str!("../../host-sim/scenarios/seed-mat.toml");
 

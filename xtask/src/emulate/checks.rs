@@ -289,17 +289,22 @@ fn agrees(emulated: f64, simulated: f64, tolerance: Tolerance) -> bool {
 /// 85 % allows one such walk on the route, not a bound that is routinely too tight.
 pub const EMULATED_INSIDE_PCT: f64 = 85.0;
 
+/// `host-sim run`'s figures for `scenario` (relative to the workspace) on the route's seed,
+/// in the pose mode the firmware flies: the filter, or else the two-tag fix.
+fn host_sim_run(scenario: &str, filter: bool) -> Result<serde_json::Value, String> {
+    let pose = if filter { "filter" } else { "tags" };
+    let mut run = Command::new(host_sim_binary());
+    run.arg("run")
+        .arg(workspace_root().join(scenario))
+        .args(["--pose", pose, "--seed", ROUTE_SEED, "--json"]);
+    serde_json::from_str(&capture(&workspace_root(), &mut run)?)
+        .map_err(|e| format!("host-sim run's figures are not JSON: {e}"))
+}
+
 pub fn route_run() -> Result<(u64, u64), String> {
     let f = crate::emulator_figures(&["--seconds", ROUTE_SECONDS, "--seed", ROUTE_SEED])?;
     let filter = f["view"]["localiser"].as_str() == Some("filter");
-    let pose = if filter { "filter" } else { "tags" };
-    let scenario = workspace_root().join("host-sim/scenarios/seed-mat.toml");
-    let mut run = Command::new(host_sim_binary());
-    run.arg("run")
-        .arg(&scenario)
-        .args(["--pose", pose, "--seed", ROUTE_SEED, "--json"]);
-    let sim: serde_json::Value = serde_json::from_str(&capture(&workspace_root(), &mut run)?)
-        .map_err(|e| format!("host-sim run's figures are not JSON: {e}"))?;
+    let sim = host_sim_run("host-sim/scenarios/seed-mat.toml", filter)?;
     let (e, v) = (&f["emulator"], &f["view"]);
     let num = |x: &serde_json::Value| x.as_f64().unwrap_or(f64::NAN);
     let first_fix_into_route = num(&v["first_fix_s"]) - num(&v["route_start_s"]);
@@ -418,13 +423,7 @@ const ROOM_SECONDS_F: f64 = 96.0;
 pub fn room_run() -> Result<(u64, u64), String> {
     let f = crate::emulator_figures(&[ROOM, "--seconds", ROOM_SECONDS, "--seed", ROUTE_SEED])?;
     let filter = f["view"]["localiser"].as_str() == Some("filter");
-    let pose = if filter { "filter" } else { "tags" };
-    let mut run = Command::new(host_sim_binary());
-    run.arg("run")
-        .arg(workspace_root().join(ROOM))
-        .args(["--pose", pose, "--seed", ROUTE_SEED, "--json"]);
-    let sim: serde_json::Value = serde_json::from_str(&capture(&workspace_root(), &mut run)?)
-        .map_err(|e| format!("host-sim run's figures are not JSON: {e}"))?;
+    let sim = host_sim_run(ROOM, filter)?;
     let (e, v) = (&f["emulator"], &f["view"]);
     let num = |x: &serde_json::Value| x.as_f64().unwrap_or(f64::NAN);
     let mut checks = timing_checks(e, v, ROOM_SECONDS_F);
