@@ -19,12 +19,13 @@
 use embassy_executor::Spawner;
 use embassy_rp::peripherals::{DMA_CH0, DMA_CH1, DMA_CH2, I2C0, I2C1, UART0, USB};
 use embassy_rp::{bind_interrupts, dma, i2c, uart};
-use {defmt_rtt as _, panic_probe as _};
+use defmt_rtt as _;
 
 mod board;
 mod health;
 mod inputs;
 mod motion;
+mod panic;
 mod sensors;
 mod slam_task;
 mod status_led;
