@@ -28,7 +28,9 @@ import { fileURLToPath } from 'node:url';
 import { USAGE, parseArgs } from './args.mjs';
 import { bootChip } from './chip.mjs';
 import { readElf, flashImage } from './elf.mjs';
-import { Faults, selfTests as faultTests } from './faults.mjs';
+import {
+  Faults, selfTests as faultTests, WRONG_FLOW_SCALE, WRONG_GYRO_BIAS_MDPS, WRONG_RANGE_MM, WRONG_TAG_PX,
+} from './faults.mjs';
 import { selfTests as core1Tests } from './core1.mjs';
 import { selfTests as dividerTests } from './divider.mjs';
 import { patchI2c, patchSpiMode, patchUart, patchUsbDevice, usbDeviceSelfTests } from './patches.mjs';
@@ -150,47 +152,70 @@ function main() {
 /// The device models on the firmware's buses, each reading the world at the instant the
 /// firmware asks and failing as the injected faults say.
 function attachDevices({ rp, later, clock, faults, world, advanceWorld }) {
-  // ICM-42688-P gyro on I2C1, the bus to itself.
+  // ICM-42688-P gyro on I2C1, the bus to itself. While it does not answer, its sample
+  // register keeps the last value (a NACKed read latches nothing).
   const imu = new Icm42688Model(() => {
-    if (faults.active('gyro-nack')) return null;
-    advanceWorld();
-    return world.gyro().rate_mdps;
+    if (faults.dropped('gyro')) return null;
+    return faults.reading('gyro', () => { advanceWorld(); return world.gyro().rate_mdps; }, {
+      garbage: (random) => Math.round((random() * 2 - 1) * 2_000_000),
+      wrong: (mdps) => mdps + WRONG_GYRO_BIAS_MDPS,
+    });
   }, () => clock.nanos);
   const imuBus = attachI2cBus(rp.i2c[1], later, { [ICM42688_ADDRESS]: imu }, () =>
-    faults.active('gyro-nack') ? [ICM42688_ADDRESS] : []);
+    faults.silent('gyro') ? [ICM42688_ADDRESS] : []);
 
   // VL53L5CX on I2C0, its ULD run by core 1. LPn low powers the part down: it stops
   // answering and forgets its firmware; high, or an input (the board pulls LPn up), powers
   // it up.
   const depth = new Vl53l5cxModel({
-    readBeams: () => { advanceWorld(); return world.depth(); },
+    readBeams: () => faults.reading('depth', () => { advanceWorld(); return world.depth(); }, {
+      garbage: (random) => ({ ranges_mm: Array.from({ length: 8 }, () => Math.round(random() * 4000)) }),
+      wrong: (beams) => ({
+        ...beams,
+        ranges_mm: beams.ranges_mm.map((r) => (r === null ? null : r + WRONG_RANGE_MM)),
+      }),
+    }),
     nowNs: () => clock.nanos,
   });
   rp.gpio[DEPTH_LPN_PIN].addListener((state) => (state === 0 ? depth.powerDown() : depth.powerUp()));
   const depthBus = attachI2cBus(rp.i2c[0], later, { [VL53L5CX_ADDRESS]: depth }, () => {
     if (!depth.present) return [VL53L5CX_ADDRESS];
-    if (faults.hit('depth-nack')) return [VL53L5CX_ADDRESS];
+    if (faults.silent('depth')) return [VL53L5CX_ADDRESS];
     return [];
   });
 
-  // PMW3901 flow sensor on SPI0. Under the no-surface fault it sees nothing: no motion,
-  // a low SQUAL and the dark flag.
+  // PMW3901 flow sensor on SPI0. Off, it leaves MISO low; under the no-surface fault it
+  // sees nothing: no motion, a low SQUAL and the dark flag.
   const spi = rp.spi[0];
   patchSpiMode(spi);
   const flow = new Pmw3901Model(() => {
-    advanceWorld();
-    const r = world.flow();
+    const r = faults.reading('flow', () => { advanceWorld(); return world.flow(); }, {
+      garbage: (random) => ({
+        forward_counts: Math.round((random() * 2 - 1) * 500),
+        right_counts: Math.round((random() * 2 - 1) * 500),
+        squal: Math.round(random() * 255),
+      }),
+      wrong: (f) => ({
+        ...f,
+        forward_counts: f.forward_counts * WRONG_FLOW_SCALE,
+        right_counts: f.right_counts * WRONG_FLOW_SCALE,
+      }),
+    });
     if (faults.hit('flow-no-surface')) return { forward_counts: 0, right_counts: 0, squal: 5, dark: true };
     return r;
-  });
+  }, () => faults.silent('flow'));
   flow.attach(spi, rp.gpio[FLOW_CS_PIN], later);
 
-  // The camera co-processor on UART0 RX.
+  // The camera co-processor on UART0 RX. Its garbage is line noise on the UART.
   const camera = new CameraLink({
     uart: rp.uart[0],
     later,
-    readTags: () => { advanceWorld(); return world.tags().tags; },
-    garbage: () => faults.hit('camera-garbage'),
+    readTags: () => faults.reading('camera', () => { advanceWorld(); return world.tags().tags; }, {
+      garbage: () => [],
+      wrong: (tags) => tags.map((t) => ({ ...t, cx_px: t.cx_px + WRONG_TAG_PX })),
+    }),
+    garbage: () => faults.active('camera-garbage'),
+    silent: () => faults.silent('camera'),
   });
   camera.start();
 

@@ -36,6 +36,8 @@ enum Task {
     Firmware(FirmwareArgs),
     /// Run the real firmware on the rp2040js emulator in the simulator's world.
     Emulate(EmulateArgs),
+    /// Every sensor failing every way on the emulated robot (24 runs), one row each.
+    EmulateFaults(emulate::fault_matrix::FaultMatrixArgs),
     /// The simulator's and the firmware's speed figures.
     Bench(BenchArgs),
     /// Check that every external program the tests call is installed, and name the
@@ -58,6 +60,7 @@ fn main() -> ExitCode {
         Task::Lint => lint::run(),
         Task::Firmware(args) => firmware::run(args),
         Task::Emulate(args) => emulate::run(args),
+        Task::EmulateFaults(args) => emulate::fault_matrix::run(args),
         Task::Bench(args) => bench(args),
         Task::Tools => tools::check_all(),
     };

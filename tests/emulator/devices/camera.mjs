@@ -58,16 +58,19 @@ export function cameraFrame(counter, tags) {
 /// The co-processor sending frames into `uart` (an rp2040js UART).
 export class CameraLink {
   /// `readTags()`: the world's tags in view now (host-sim's `tags` reply); `garbage()`:
-  /// whether line noise replaces this frame (fault injection); `later(ns, fn)` schedules
-  /// on the simulation clock.
-  constructor({ uart, later, readTags, garbage }) {
+  /// whether line noise replaces this frame, `silent()`: whether the co-processor sends
+  /// nothing this period (fault injection); `later(ns, fn)` schedules on the simulation
+  /// clock.
+  constructor({ uart, later, readTags, garbage, silent = () => false }) {
     this.uart = uart;
     this.later = later;
     this.readTags = readTags;
     this.garbage = garbage;
+    this.silent = silent;
     this.counter = 0;
-    /// Frames sent good, frames sent as garbage, bytes queued, tags in the good frames.
-    this.stats = { frames: 0, garbage: 0, bytes: 0, tagsSent: 0 };
+    /// Frames sent good, frames sent as garbage, periods left silent, bytes queued, tags
+    /// in the good frames.
+    this.stats = { frames: 0, garbage: 0, silent: 0, bytes: 0, tagsSent: 0 };
     /// Bytes the UART took (the rest were dropped on a full RX FIFO).
     this.uartRxBytes = 0;
     this.rxQueue = [];
@@ -80,6 +83,11 @@ export class CameraLink {
   }
 
   tick() {
+    if (this.silent()) {
+      this.stats.silent++;
+      this.later(FRAME_PERIOD_NS, () => this.tick());
+      return;
+    }
     const tags = this.readTags() || [];
     let bytes = cameraFrame(this.counter++, tags);
     if (this.garbage()) {

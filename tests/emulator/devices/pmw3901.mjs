@@ -16,9 +16,11 @@ const SPI_MODE = 3;
 /// each transaction. The motion burst (0x16) returns 12 bytes built from the world's flow
 /// at the moment it is asked.
 export class Pmw3901Model {
-  /// `readFlow()`: `{ forward_counts, right_counts, squal, dark? }` at this instant.
-  constructor(readFlow) {
+  /// `readFlow()`: `{ forward_counts, right_counts, squal, dark? }` at this instant;
+  /// `absent()`: whether the sensor is not answering (MISO stays low, writes are lost).
+  constructor(readFlow, absent = () => false) {
     this.readFlow = readFlow;
+    this.absent = absent;
     this.bursts = 0;
     this.regReads = 0;
     this.writes = 0;
@@ -34,6 +36,7 @@ export class Pmw3901Model {
   deselect() { this.addr = null; this.out = []; this.writeReg = null; }
 
   transfer(mosi) {
+    if (this.absent()) return 0;
     if (this.writeReg !== null) {
       this.writes++;
       if (this.writeReg === REG_POWER_UP_RESET && mosi === POWER_UP_RESET_VALUE) this.resets++;

@@ -21,6 +21,7 @@
 
 pub mod checks;
 pub mod defmt_log;
+pub mod fault_matrix;
 pub mod progress;
 pub mod self_tests;
 pub mod usb_stream;
@@ -50,8 +51,9 @@ pub struct EmulateArgs {
     /// source, so this only labels the output directory.
     #[arg(long, value_name = "MODE")]
     pub pose: Option<String>,
-    /// depth-nack, camera-garbage, flow-no-surface or gyro-nack from S seconds on
-    /// (`NAME@T+S`, or `NAME@T+S/D` for D seconds); repeatable.
+    /// SENSOR-KIND from S seconds on (`NAME@T+S`, or `NAME@T+S/D` for D seconds):
+    /// SENSOR one of depth, flow, gyro, camera; KIND one of off, stuck, garbage, wrong,
+    /// slow, intermittent (and flow-no-surface); repeatable.
     #[arg(long = "fault", value_name = "NAME@T+S")]
     pub faults: Vec<String>,
     /// Run without host-sim: the robot stands still on a good surface.
