@@ -318,13 +318,21 @@ impl Covariance {
     #[inline(never)]
     pub fn times_sight_rows(&self, sin: i32, cos: i32) -> [[i64; N]; 2] {
         let (x, y) = (State::X as usize, State::Y as usize);
-        let mut a = [[0i64; N]; 2];
-        for (i, row) in self.m.iter().enumerate() {
-            let (px, py) = (row[x], row[y]);
-            a[0][i] = i64::from(mul_q16_32(px, -sin)) + i64::from(mul_q16_32(py, -cos));
-            a[1][i] = i64::from(mul_q16_32(px, -cos)) + i64::from(mul_q16_32(py, sin));
-        }
-        a
+        // Built entry by entry, not zeroed first and then filled (a library call).
+        let row = |f: fn(i32, i32, i32, i32) -> i64| -> [i64; N] {
+            core::array::from_fn(|i| {
+                let (px, py) = (self.m[i][x], self.m[i][y]);
+                f(px, py, sin, cos)
+            })
+        };
+        [
+            row(|px, py, sin, cos| {
+                i64::from(mul_q16_32(px, -sin)) + i64::from(mul_q16_32(py, -cos))
+            }),
+            row(|px, py, sin, cos| {
+                i64::from(mul_q16_32(px, -cos)) + i64::from(mul_q16_32(py, sin))
+            }),
+        ]
     }
 
     /// Column `j`.
