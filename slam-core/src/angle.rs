@@ -116,7 +116,7 @@ impl Angle {
         // axis is our +y.
         let (vx, vy) = (y, x);
         let big = vx.unsigned_abs().max(vy.unsigned_abs());
-        let width = 32 - big.leading_zeros();
+        let width = bit_width(big);
         if width > 29 {
             cordic(vx >> (width - 29), vy >> (width - 29))
         } else {
@@ -177,7 +177,7 @@ pub fn sin_cos_of_vector(x: i32, y: i32) -> (i32, i32) {
     }
     // Scaled so the larger magnitude sits in [2^14, 2^15): the squares' sum fits 31 bits.
     // Cutting towards zero keeps every magnitude below 2^15.
-    let width = 32 - big.leading_zeros();
+    let width = bit_width(big);
     let (a, b) = if width > 15 {
         let cut = |v: i32| {
             let m = (v.unsigned_abs() >> (width - 15)) as i32;
@@ -202,6 +202,19 @@ pub fn sin_cos_of_vector(x: i32, y: i32) -> (i32, i32) {
     let (whole, frac) = (root >> 8, root & 0xFF);
     let unit = |v: i32| (v * whole + ((v * frac) >> 8) + half) >> shift;
     (unit(a), unit(b))
+}
+
+/// The bits `n` takes, `32 - n.leading_zeros()`, by halving steps: a count of leading
+/// zeros is a library call on the M0+.
+fn bit_width(n: u32) -> u32 {
+    let (mut top, mut width) = (n, 0);
+    for step in [16, 8, 4, 2, 1] {
+        if top >= 1 << step {
+            top >>= step;
+            width += step;
+        }
+    }
+    width + top
 }
 
 /// `2^24 / sqrt(n / 2^30)` for `n` in `[2^30, 2^32)`, in `[2^23, 2^24]`: a table with linear
@@ -386,6 +399,19 @@ const ATAN_TABLE: [u32; 24] = [
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn bit_width_is_the_leading_zeros_one() {
+        let mut n = 0x9E37_79B9u32;
+        for k in 0..100_000u32 {
+            n = n.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            let v = n >> (k % 32);
+            assert_eq!(bit_width(v), 32 - v.leading_zeros(), "{v}");
+        }
+        for v in [0, 1, 2, 3, u32::MAX, 1 << 31, (1 << 31) - 1] {
+            assert_eq!(bit_width(v), 32 - v.leading_zeros(), "{v}");
+        }
+    }
 
     #[test]
     fn millidegrees_round_trip() {

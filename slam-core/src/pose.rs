@@ -32,12 +32,12 @@ impl Pose {
 
     /// Position x rounded to millimetres.
     pub const fn x_mm(&self) -> i32 {
-        round_div(self.x_um as i64, UM_PER_MM as i64) as i32
+        mm_of_um(self.x_um)
     }
 
     /// Position y rounded to millimetres.
     pub const fn y_mm(&self) -> i32 {
-        round_div(self.y_um as i64, UM_PER_MM as i64) as i32
+        mm_of_um(self.y_um)
     }
 
     /// Straight-line distance to `other` in micrometres (integer square root), saturating.
@@ -121,8 +121,25 @@ impl RigidMotion {
     }
 }
 
-/// `a / b` rounded half away from zero; `b` must be positive.
-pub(crate) const fn round_div(a: i64, b: i64) -> i64 {
+/// Micrometres to millimetres rounded half away from zero, as `round_div(um, 1000)`, by
+/// a multiply: the M0+ has no divider. `floor(n / 1000)` is `floor(n M / 2^38)` for
+/// `M = ceil(2^38 / 1000)` and every `n` below `2^32` (`M 1000 - 2^38 = 56`, and `56 n`
+/// stays below `2^38`).
+const fn mm_of_um(um: i32) -> i32 {
+    const M: u32 = 274_877_907;
+    let n = um.unsigned_abs() + (UM_PER_MM as u32) / 2;
+    let q = (crate::estimator::fixed::wide_mul_unsigned(n, M) >> 38) as i32;
+    if um < 0 {
+        -q
+    } else {
+        q
+    }
+}
+
+/// `a / b` rounded half away from zero; `b` must be positive. The reference
+/// [`mm_of_um`] is tested against.
+#[cfg(test)]
+const fn round_div(a: i64, b: i64) -> i64 {
     if a >= 0 {
         div_trunc(a + b / 2, b)
     } else {
@@ -140,7 +157,8 @@ const fn fits_i32(x: i64) -> bool {
 /// In 32 bits whenever both fit, as they do for every length on the robot: the
 /// Cortex-M0+ has no divide instruction, and its software 64-bit division costs several
 /// times the 32-bit one (which the RP2040's hardware divider can also serve).
-pub(crate) const fn div_trunc(a: i64, b: i64) -> i64 {
+#[cfg(test)]
+const fn div_trunc(a: i64, b: i64) -> i64 {
     if fits_i32(a) && fits_i32(b) {
         (a as i32 / b as i32) as i64
     } else {
@@ -354,6 +372,26 @@ mod tests {
             }
         }
         assert_eq!(round_div(-1_500, 1_000), -2);
+        let mut n = 0x2545_F491u32;
+        for k in 0..200_000u32 {
+            n = n.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            let um = (n as i32) >> (k % 31);
+            assert_eq!(mm_of_um(um) as i64, round_div(um as i64, 1000), "{um}");
+        }
+        for um in [
+            0,
+            499,
+            500,
+            -499,
+            -500,
+            1_499,
+            -1_500,
+            i32::MAX,
+            i32::MIN,
+            i32::MIN + 1,
+        ] {
+            assert_eq!(mm_of_um(um) as i64, round_div(um as i64, 1000), "{um}");
+        }
         assert_eq!(round_div(1_499, 1_000), 1);
     }
 

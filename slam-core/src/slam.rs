@@ -462,8 +462,10 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             #[cfg(feature = "matching")]
             self.sweep.carry(&motion);
             self.pose = self.history.newest();
+            self.estimator.settle_updated();
+        } else {
+            self.estimator.settle();
         }
-        self.estimator.settle();
         match outcome {
             FixOutcome::Taken => self.counters.fixes_taken += 1,
             FixOutcome::Rejected(FixRejection::Gate) => self.counters.fixes_rejected_gate += 1,

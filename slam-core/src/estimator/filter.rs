@@ -57,6 +57,8 @@ pub struct Estimator {
     /// The cosine of the camera's half view (Q16), worked out once: a tag's bearing
     /// whose cosine is below it is outside the picture.
     pub(super) view_cos: i32,
+    /// Which third of the correlation check [`Estimator::settle_updated`] does next.
+    settle_part: u8,
 }
 
 impl Estimator {
@@ -83,6 +85,7 @@ impl Estimator {
             noise: NoiseParts::of(c),
             sighting_noise: SightingNoise::of(c),
             view_cos: Angle::from_millidegrees(i64::from(c.half_view_mdeg)).cos(),
+            settle_part: 0,
         };
         e.settle();
         e
@@ -263,6 +266,17 @@ impl Estimator {
     /// definiteness.
     pub fn settle(&mut self) {
         self.p.bound(&FLOOR, &CEILING);
+    }
+
+    /// [`Estimator::settle`] for a tick that took tag updates, the costliest kind: the
+    /// variances within bounds, but the correlations of only a third of the pairs checked,
+    /// the thirds in turn, so that each pair is still checked at least every third tick
+    /// (and on every tick with no update). The check guards against the rounding of many
+    /// updates, which moves a correlation far less in three ticks than its margin.
+    pub fn settle_updated(&mut self) {
+        let part = self.settle_part;
+        self.settle_part = if part >= 2 { 0 } else { part + 1 };
+        self.p.bound_part(&FLOOR, &CEILING, part);
     }
 }
 

@@ -82,7 +82,8 @@ pub fn mul_shift_each<const L: usize>(k: &[i64; L], x: i64, shift: u32) -> [i64;
     let small = largest <= i32::MAX as u64
         && fits_i32(x)
         && (1..31).contains(&shift)
-        && wide_mul_unsigned(largest as u32, x.unsigned_abs() as u32) + (1 << (shift - 1))
+        && wide_mul_unsigned(largest as u32, x.unsigned_abs() as u32)
+            + u64::from(1u32 << (shift - 1))
             <= i32::MAX as u64;
     if small {
         let x = x as i32;
@@ -112,7 +113,7 @@ fn round_mul_each<const L: usize>(
 ) -> [i64; L] {
     // Half a unit of the quotient rounds a positive product half up; a negative one,
     // -x / 2^s rounded half up, is -((x + half - 1) >> s).
-    let half = 1u64 << (shift - 1);
+    let half = half_of_shift(shift);
     v.map(|v| {
         if !fits_i32(v) {
             return other(v);
@@ -132,6 +133,17 @@ fn round_mul_each<const L: usize>(
             q
         }
     })
+}
+
+/// `2^(shift - 1)` for `1 <= shift < 62`, from a 32-bit shift: a 64-bit shift by a
+/// variable amount is a library call on the M0+.
+#[inline(always)]
+fn half_of_shift(shift: u32) -> u64 {
+    if shift <= 32 {
+        u64::from(1u32 << (shift - 1))
+    } else {
+        u64::from(1u32 << (shift - 33)) << 32
+    }
 }
 
 #[cold]
@@ -406,6 +418,13 @@ mod tests {
             let e = width - 31;
             let m = (if e >= 0 { s >> e } else { s << -e }) as u32;
             assert_eq!(normalise(s), (m, e), "{s}");
+        }
+    }
+
+    #[test]
+    fn half_of_shift_is_the_64_bit_shift() {
+        for shift in 1..62 {
+            assert_eq!(half_of_shift(shift), 1u64 << (shift - 1), "{shift}");
         }
     }
 

@@ -26,6 +26,13 @@ fn asin_small(x: i32) -> i32 {
     x + if cube < 0 { -sixth } else { sixth }
 }
 
+/// Millimetres to micrometres: one 32-bit multiply for any place within 2 km (a 64-bit
+/// multiply is a library call on the M0+), 64 bits past it.
+fn um_of_mm(mm: i32) -> i64 {
+    mm.checked_mul(1000)
+        .map_or_else(|| i64::from(mm) * 1000, i64::from)
+}
+
 /// `h a` for a sparse Q16 row `h`.
 fn dot(h: &[(State, i32)], a: &[i64; N]) -> i64 {
     h.iter().map(|&(j, v)| mul_q16_unit(a[j as usize], v)).sum()
@@ -83,8 +90,8 @@ impl Estimator {
 
         // Where the tag should be seen from `then`, in position units (a tag within the
         // camera's reach is within 2^15 of them: a 32-bit root).
-        let dx_um = i64::from(tag.x_mm) * 1000 - i64::from(then.x_um);
-        let dy_um = i64::from(tag.y_mm) * 1000 - i64::from(then.y_um);
+        let dx_um = um_of_mm(tag.x_mm) - i64::from(then.x_um);
+        let dy_um = um_of_mm(tag.y_mm) - i64::from(then.y_um);
         let range = hypot(
             units::position_from_um(dx_um),
             units::position_from_um(dy_um),
@@ -200,6 +207,23 @@ impl Estimator {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn um_of_mm_is_the_64_bit_product() {
+        for mm in [
+            0,
+            1,
+            -1,
+            2_147_483,
+            -2_147_483,
+            2_147_484,
+            -2_147_484,
+            i32::MAX,
+            i32::MIN,
+        ] {
+            assert_eq!(um_of_mm(mm), i64::from(mm) * 1000, "{mm}");
+        }
+    }
 
     #[test]
     fn asin_small_is_the_series_divided() {
