@@ -835,8 +835,10 @@ proptest! {
     #[test]
     fn arbitrary_ticks_round_trip(
         v in proptest::array::uniform17(any::<u32>()),
+        w in proptest::array::uniform4(any::<u32>()),
         fix in 0u8..5,
         stale in any::<u8>(),
+        doubts in any::<u16>(),
         noise in proptest::collection::vec(any::<u8>(), 0..300),
     ) {
         let t = Tick {
@@ -851,10 +853,12 @@ proptest! {
             },
             stale,
             cells_written: v[5],
+            doubts,
             counters: Counters {
                 ticks: v[6], fixes_taken: v[7], fixes_rejected_geometry: v[8],
                 fixes_rejected_gate: v[9], fixes_rejected_too_old: v[16], relocalisations: v[10], beams_mapped: v[11],
                 beams_invalid: v[12], flow_stale: v[13], gyro_stale: v[14], depth_stale: v[15],
+                gyro_doubted: w[0], flow_doubted: w[1], depth_doubted: w[2], scans_withheld: w[3],
             },
         };
         // Noise, a delimiter, then the frame: the frame always comes through.
