@@ -229,7 +229,8 @@ pub async fn slam_task(watchdog: Peri<'static, WATCHDOG>, inputs: &'static Input
         let report = slam.step(&frame);
         trust = report.trust;
         if trust != trusted_before {
-            defmt::warn!("slam: inputs doubted (none: trusted again): {}", trust);
+            // Four bits an input, gyro lowest: 0 trusted, else `slam_core::Doubt::code`.
+            defmt::warn!("slam: doubted inputs now {=u16:#05x}", trust.packed());
         }
         // The guard, as host-sim's route asks it: this tick's pose, map, scan and trust.
         let command = DriveCommand {

@@ -203,6 +203,7 @@ struct Watch {
 }
 
 impl Watch {
+    #[inline(never)]
     fn judge(&mut self, verdict: Result<(), Doubt>, trust_after: u8) {
         match verdict {
             Err(doubt) => {
@@ -229,6 +230,7 @@ struct Repeats<T> {
 
 impl<T: PartialEq + Copy> Repeats<T> {
     /// Takes a reading; returns the reading before it and how many repeats end here.
+    #[inline(never)]
     fn push(&mut self, reading: T) -> (Option<T>, u8) {
         let before = self.last.replace(reading);
         self.repeats = if before == Some(reading) {
@@ -242,6 +244,7 @@ impl<T: PartialEq + Copy> Repeats<T> {
 
 /// The gyro's checks: a rate no robot turns at, a jump no robot makes, one value stuck,
 /// a turn while held.
+#[inline(never)]
 pub fn check_gyro(
     rate: GyroRate,
     before: Option<GyroRate>,
@@ -267,6 +270,7 @@ pub fn check_gyro(
 
 /// The flow's checks: a drive faster than the robot's, a sideways slide, one delta
 /// stuck, a drive while held.
+#[inline(never)]
 pub fn check_flow(
     flow: FlowDelta,
     repeats: u8,
@@ -293,6 +297,7 @@ pub fn check_flow(
 /// (at once when half its zones returned, where noise makes a repeat all but
 /// impossible; after [`PlausibleConfig::stuck_ticks`] otherwise). A frame with no return
 /// is never stuck: it writes nothing.
+#[inline(never)]
 pub fn check_depth(scan: &DepthScan, repeats: u8, config: &PlausibleConfig) -> Result<(), Doubt> {
     let returns = scan.ranges_mm.iter().flatten();
     if returns.clone().any(|r| *r > config.max_depth_mm) {
@@ -360,6 +365,9 @@ impl Plausibility {
     /// the trust then lacked what its motion needs (turns: the gyro; drives: the flow as
     /// well). An input never heard from is not doubted for being missing: the robot
     /// waits for its sensors before it moves.
+    ///
+    /// Out of line: once a tick, and the firmware builds the core for speed.
+    #[inline(never)]
     pub fn judge(
         &mut self,
         gyro: Option<GyroRate>,
@@ -405,6 +413,7 @@ impl Plausibility {
 /// What to integrate of an input: its reading when trusted (or absent unheard: lost);
 /// when doubted, still if the robot was held, else the reading of the last trusted tick
 /// on which it was not held: a held motion resumes as it was when it stopped.
+#[inline(never)]
 fn known<T: Copy>(
     reading: Option<T>,
     doubt: Option<Doubt>,
