@@ -13,8 +13,8 @@ use crate::score::{map_counts, out_of_place_mask, pose_errors, real_mask, MapCou
 use crate::telemetry::TelemetryWriter;
 use serde::Serialize;
 use slam_core::{
-    Decision, DriveCommand, FixOutcome, GridMap, GuardConfig, Localiser, MatchingConfig, Occupancy, Pose,
-    SensorFrame, Slam, SlamConfig, TagMap,
+    Decision, DriveCommand, FixOutcome, GridMap, GuardConfig, Localiser, MatchingConfig, Occupancy,
+    Pose, SensorFrame, Slam, SlamConfig, TagMap,
 };
 use std::fmt;
 use std::str::FromStr;

@@ -310,18 +310,40 @@ mod tests {
         let map = empty_map();
         let safe = i64::from(CONFIG.safe_distance_mm(86));
         for distance in [20, 60, 90, safe - 1] {
-            let decision = decide(&CONFIG, &POSE, &map, Some(&wall_ahead(distance)), &TRUSTED, AHEAD);
+            let decision = decide(
+                &CONFIG,
+                &POSE,
+                &map,
+                Some(&wall_ahead(distance)),
+                &TRUSTED,
+                AHEAD,
+            );
             assert!(
                 matches!(decision, Decision::Stop(Obstacle::Beam(_))),
                 "{distance}"
             );
         }
         for distance in [safe + 1, 150, 400, 2000] {
-            let decision = decide(&CONFIG, &POSE, &map, Some(&wall_ahead(distance)), &TRUSTED, AHEAD);
+            let decision = decide(
+                &CONFIG,
+                &POSE,
+                &map,
+                Some(&wall_ahead(distance)),
+                &TRUSTED,
+                AHEAD,
+            );
             assert_eq!(decision, Decision::Go, "{distance}");
         }
         // Faster, a wall beyond the safe distance at 86 mm/s is inside it (145 mm at 300).
-        assert!(decide(&CONFIG, &POSE, &map, Some(&wall_ahead(140)), &TRUSTED, AHEAD).is_go());
+        assert!(decide(
+            &CONFIG,
+            &POSE,
+            &map,
+            Some(&wall_ahead(140)),
+            &TRUSTED,
+            AHEAD
+        )
+        .is_go());
         let fast = DriveCommand {
             speed_mm_s: 300,
             ..AHEAD
@@ -406,7 +428,14 @@ mod tests {
         let mut near_nose = DepthScan::default();
         near_nose.ranges_mm[3] = Some(90);
         assert_eq!(
-            decide(&CONFIG, &POSE, &empty_map(), Some(&near_nose), &TRUSTED, AHEAD),
+            decide(
+                &CONFIG,
+                &POSE,
+                &empty_map(),
+                Some(&near_nose),
+                &TRUSTED,
+                AHEAD
+            ),
             Decision::Stop(Obstacle::Beam(3))
         );
         // A mapped wall parallel to the path, its cells' centres 125 mm to the side.
@@ -420,7 +449,10 @@ mod tests {
     #[test]
     fn dropouts_say_nothing() {
         let map = empty_map();
-        assert_eq!(decide(&CONFIG, &POSE, &map, None, &TRUSTED, AHEAD), Decision::Go);
+        assert_eq!(
+            decide(&CONFIG, &POSE, &map, None, &TRUSTED, AHEAD),
+            Decision::Go
+        );
         let blank = DepthScan::default();
         assert_eq!(
             decide(&CONFIG, &POSE, &map, Some(&blank), &TRUSTED, AHEAD),
@@ -452,7 +484,10 @@ mod tests {
             Decision::Go
         );
         let further = map_with(&[(1000, 1300)]);
-        assert_eq!(decide(&CONFIG, &POSE, &further, None, &TRUSTED, AHEAD), Decision::Go);
+        assert_eq!(
+            decide(&CONFIG, &POSE, &further, None, &TRUSTED, AHEAD),
+            Decision::Go
+        );
         // Backing into it: only the map can tell.
         let reverse = DriveCommand {
             speed_mm_s: -86,
@@ -474,7 +509,10 @@ mod tests {
         assert!(!decide(&CONFIG, &east, &map, None, &TRUSTED, AHEAD).is_go());
         let north_east = Pose::from_mm_mdeg(1000, 1000, 45_000);
         assert!(!decide(&CONFIG, &north_east, &map, None, &TRUSTED, AHEAD).is_go());
-        assert_eq!(decide(&CONFIG, &POSE, &map, None, &TRUSTED, AHEAD), Decision::Go);
+        assert_eq!(
+            decide(&CONFIG, &POSE, &map, None, &TRUSTED, AHEAD),
+            Decision::Go
+        );
         // Near the grid's edge nothing is read outside it.
         let corner = Pose::from_mm_mdeg(-140, -140, 225_000);
         assert_eq!(

@@ -417,9 +417,11 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         let scan = frame
             .depth
             .as_ref()
-            .filter(|_| vouched || {
-                self.counters.scans_withheld += 1;
-                false
+            .filter(|_| {
+                vouched || {
+                    self.counters.scans_withheld += 1;
+                    false
+                }
             })
             .map(|scan| (scan, self.history.at(frame.depth_age_us)));
         let cells_written = match scan {
@@ -454,8 +456,14 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         let before = self.pose;
         self.pose = odometry::apply(&before, &motion);
         self.history.push(self.pose, dt_us);
-        self.estimator
-            .predict(&before, &self.pose, &motion, dt_us, flow.kind(), gyro.kind());
+        self.estimator.predict(
+            &before,
+            &self.pose,
+            &motion,
+            dt_us,
+            flow.kind(),
+            gyro.kind(),
+        );
     }
 
     /// Every tag in the picture, one update each at the picture's moment, each from the

@@ -137,8 +137,11 @@ fn drive(
     age_us: u32,
     told_age_us: u32,
 ) -> (Slam<46, 46>, Vec<StepReport>) {
-    let mut slam: Slam<46, 46> =
-        Slam::new(unchecked(world::shipped::seed_robot().config), to_pose(&m.start)).unwrap();
+    let mut slam: Slam<46, 46> = Slam::new(
+        unchecked(world::shipped::seed_robot().config),
+        to_pose(&m.start),
+    )
+    .unwrap();
     let mut reports = Vec::new();
     for k in 1..=ticks {
         let (flow, gyro) = m.odometry(k);
@@ -309,8 +312,11 @@ fn too_old_pictures_are_refused_and_counted() {
     };
 
     // At the first tick the history holds the start and this tick: one tick back.
-    let mut slam: Slam<46, 46> =
-        Slam::new(unchecked(world::shipped::seed_robot().config), to_pose(&m.start)).unwrap();
+    let mut slam: Slam<46, 46> = Slam::new(
+        unchecked(world::shipped::seed_robot().config),
+        to_pose(&m.start),
+    )
+    .unwrap();
     let mut frame = SensorFrame::empty(DT_US);
     frame.tags = tags_then(0, 0);
     frame.tags_age_us = DT_US + 1;
@@ -581,7 +587,8 @@ fn old_scans_map_at_the_pose_of_their_moment() {
     let start = Pose::from_mm_mdeg(700, 500, 10_000);
 
     // Mapped when taken: on the tick it was measured, then a tick of turning.
-    let mut then = Slam::<46, 46>::new(unchecked(world::shipped::seed_robot().config), start).unwrap();
+    let mut then =
+        Slam::<46, 46>::new(unchecked(world::shipped::seed_robot().config), start).unwrap();
     let mut f = SensorFrame::empty(DT_US);
     turning(&mut f);
     then.step(&f);
@@ -591,7 +598,8 @@ fn old_scans_map_at_the_pose_of_their_moment() {
     then.step(&f);
 
     // Mapped a tick late, told its age.
-    let mut late = Slam::<46, 46>::new(unchecked(world::shipped::seed_robot().config), start).unwrap();
+    let mut late =
+        Slam::<46, 46>::new(unchecked(world::shipped::seed_robot().config), start).unwrap();
     let mut f = SensorFrame::empty(DT_US);
     turning(&mut f);
     late.step(&f);
@@ -604,7 +612,8 @@ fn old_scans_map_at_the_pose_of_their_moment() {
     assert_eq!(late.map().rows(), then.map().rows());
 
     // Mapped a tick late as if new: a different (smeared) map.
-    let mut blind = Slam::<46, 46>::new(unchecked(world::shipped::seed_robot().config), start).unwrap();
+    let mut blind =
+        Slam::<46, 46>::new(unchecked(world::shipped::seed_robot().config), start).unwrap();
     let mut f = SensorFrame::empty(DT_US);
     turning(&mut f);
     blind.step(&f);

@@ -3,8 +3,8 @@
 //! readings.
 
 use slam_core::{
-    DepthScan, Doubt, DriveCommand, FlowDelta, GyroRate, Input, Localiser, Pose, SensorFrame,
-    Slam, StepReport, BEAMS,
+    DepthScan, Doubt, DriveCommand, FlowDelta, GyroRate, Input, Localiser, Pose, SensorFrame, Slam,
+    StepReport, BEAMS,
 };
 
 type Robot = Slam<46, 46>;

@@ -56,7 +56,8 @@ struct Run {
 
 fn drive(with_tags: bool) -> Run {
     let start = Pose::from_mm_mdeg(500, 500, 0);
-    let mut slam: Slam<46, 46> = Slam::new(unchecked(world::shipped::seed_robot().config), start).unwrap();
+    let mut slam: Slam<46, 46> =
+        Slam::new(unchecked(world::shipped::seed_robot().config), start).unwrap();
     assert_eq!(slam.config().localiser, slam_core::Localiser::TwoTagFix);
     let mut truth = RefPose {
         x_um: 500_000.0,

@@ -3,9 +3,9 @@
 
 use proptest::prelude::*;
 use slam_core::{
-    Angle, Calibration, Counters, DepthScan, Evidence, FixOutcome, FixRejection, FlowDelta,
+    Angle, Calibration, Counters, DepthScan, Doubt, Evidence, FixOutcome, FixRejection, FlowDelta,
     GridGeometry, GridMap, GyroRate, Localiser, Pose, PoseCovariance, SensorFrame, Staleness,
-    StepReport, TagCounters, TagDetection, TagDetections, Trust, Doubt, BEAMS, MAX_TAGS,
+    StepReport, TagCounters, TagDetection, TagDetections, Trust, BEAMS, MAX_TAGS,
 };
 use wire::framing::{cobs_encode, crc16};
 use wire::telemetry::*;
