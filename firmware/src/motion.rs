@@ -40,13 +40,15 @@
 //! publishes in [`DRIVE_SPEED_MM_S`]: the leg being driven, or while turning the next
 //! drive, so that the first report of a drive has already judged it. A drive the guard
 //! stops coasts at once and the route goes on with its next leg (counted in
-//! `guard_stops`); turns on the spot sweep nothing new and are never stopped.
+//! `guard_stops`); turns on the spot sweep nothing new and are never stopped. A guard
+//! hold (an input the motion needs is doubted by the core's plausibility checks) coasts
+//! and keeps the leg: a drive's clock and a turn's time limit stop until it lifts.
 
 use drivers::motors::{HBridge, MotorConfig, Motors, PerMille};
 use embassy_rp::pwm::{self, Pwm, PwmError, PwmOutput};
 use embassy_time::{Duration, Instant, Ticker};
 use portable_atomic::{AtomicI32, Ordering};
-use slam_core::Decision;
+use slam_core::{Decision, Input};
 
 use crate::board::{MotorPins, MOTOR_PWM_TOP};
 use crate::health::HEALTH;
@@ -232,18 +234,29 @@ impl Pilot<'_> {
         let start_yaw = self.inputs.yaw.yaw_mdeg();
         let started = Instant::now();
         let mut ticker = Ticker::every(CONTROL_PERIOD);
+        let mut held = Duration::from_ticks(0);
         loop {
             let turned = (self.inputs.yaw.yaw_mdeg() - start_yaw) * direction;
             if turned >= mdeg.abs() {
                 self.coast();
                 return true;
             }
-            if started.elapsed() > limit {
+            if started.elapsed() > limit + held {
                 self.coast();
                 return false;
             }
-            self.command(0, command);
+            // Only a doubted gyro holds a turn: a turn on the spot needs no flow.
+            let holding = self.guard == Decision::Hold(Input::Gyro);
+            if holding {
+                self.coast();
+            } else {
+                self.command(0, command);
+            }
             ticker.next().await;
+            if holding {
+                held += CONTROL_PERIOD;
+            }
+            self.listen();
         }
     }
 
@@ -256,13 +269,22 @@ impl Pilot<'_> {
         let mut previous = Instant::now();
         while driven < time {
             self.listen();
-            if let Decision::Stop(obstacle) = self.guard {
-                defmt::warn!("motion: guard stop before {}; leg skipped", obstacle);
-                HEALTH.guard_stops.bump();
-                break;
-            }
-            self.command(command, 0);
-            let was_running = !self.halted;
+            let was_running = match self.guard {
+                Decision::Stop(obstacle) => {
+                    defmt::warn!("motion: guard stop before {}; leg skipped", obstacle);
+                    HEALTH.guard_stops.bump();
+                    break;
+                }
+                // The leg's clock stops while an input it needs is doubted.
+                Decision::Hold(_) => {
+                    self.coast();
+                    false
+                }
+                Decision::Go => {
+                    self.command(command, 0);
+                    !self.halted
+                }
+            };
             ticker.next().await;
             let now = Instant::now();
             if was_running {

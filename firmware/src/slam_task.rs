@@ -187,6 +187,7 @@ pub async fn slam_task(watchdog: Peri<'static, WATCHDOG>, inputs: &'static Input
     let mut ticker = Ticker::every(TICK);
     let mut deadline = Instant::now() + TICK;
     let mut previous = Instant::now();
+    let mut trust = slam_core::Trust::default();
 
     loop {
         ticker.next().await;
@@ -224,8 +225,14 @@ pub async fn slam_task(watchdog: Peri<'static, WATCHDOG>, inputs: &'static Input
             frame.tags_age_us = micros(started.saturating_duration_since(picture.received));
         }
 
+        let trusted_before = trust;
         let report = slam.step(&frame);
-        // The guard, as host-sim's route asks it: this tick's pose, map and scan.
+        trust = report.trust;
+        if trust != trusted_before {
+            // Four bits an input, gyro lowest: 0 trusted, else `slam_core::Doubt::code`.
+            defmt::warn!("slam: doubted inputs now {=u16:#05x}", trust.packed());
+        }
+        // The guard, as host-sim's route asks it: this tick's pose, map, scan and trust.
         let command = DriveCommand {
             speed_mm_s: crate::motion::DRIVE_SPEED_MM_S.load(Ordering::Relaxed),
             turn_mdps: 0,
@@ -235,6 +242,7 @@ pub async fn slam_task(watchdog: Peri<'static, WATCHDOG>, inputs: &'static Input
             &report.pose,
             slam.map(),
             frame.depth.as_ref(),
+            &report.trust,
             command,
         );
         health.max_step_us = health

@@ -36,7 +36,8 @@ pub struct Route {
     /// Progress in the current step: degrees turned, ticks driven or millimetres covered.
     progress: f64,
     last: Option<TruePose>,
-    /// Whether the current tick's step was skipped, so the tick counts for no step.
+    /// Whether the current tick's step was skipped or held, so the tick counts for no
+    /// step.
     skipped: bool,
 }
 
@@ -60,6 +61,12 @@ impl Route {
             self.progress = 0.0;
             self.skipped = true;
         }
+    }
+
+    /// Holds the current step (an input its motion needs is doubted): the robot stands
+    /// this tick, which counts for no step, and the step goes on where it was.
+    pub fn hold(&mut self) {
+        self.skipped = true;
     }
 
     /// What the motors should do now; `None` once the route is done.

@@ -13,8 +13,8 @@ use crate::score::{map_counts, out_of_place_mask, pose_errors, real_mask, MapCou
 use crate::telemetry::TelemetryWriter;
 use serde::Serialize;
 use slam_core::{
-    DriveCommand, FixOutcome, GridMap, GuardConfig, Localiser, MatchingConfig, Occupancy, Pose,
-    SensorFrame, Slam, SlamConfig, TagMap,
+    Decision, DriveCommand, FixOutcome, GridMap, GuardConfig, Localiser, MatchingConfig, Occupancy,
+    Pose, SensorFrame, Slam, SlamConfig, TagMap,
 };
 use std::fmt;
 use std::str::FromStr;
@@ -189,6 +189,10 @@ pub struct Figures {
     pub collisions: u32,
     /// Drives the guard stopped before an obstacle (each skipped its route step).
     pub guard_stops: u32,
+    /// Ticks the guard held the route because an input its motion needs was doubted
+    /// ([`slam_core::plausible`]); absent when none.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub held_ticks: u32,
     /// When the run reached [`MAX_RUN_S`] before its route ended, the time it was cut
     /// at, seconds; absent (not even `null`) when the route ran to its end.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -410,6 +414,7 @@ fn run_sized<const W: usize, const H: usize>(
     let mut injector = Injector::new(faults, seed);
     let guard = guard_config(scenario);
     let mut guard_stops = 0;
+    let mut held_ticks = 0;
     let mut config = slam_config(scenario);
     mode.configure(&mut config);
     let mut robot = Robot::new(scenario, seed);
@@ -459,12 +464,21 @@ fn run_sized<const W: usize, const H: usize>(
                 &report.pose,
                 slam.map(),
                 frame.depth.as_ref(),
+                &report.trust,
                 drive_command(&command),
             );
-            if !decision.is_go() {
-                guard_stops += 1;
-                route.skip();
-                command = Command::default();
+            match decision {
+                Decision::Go => {}
+                Decision::Stop(_) => {
+                    guard_stops += 1;
+                    route.skip();
+                    command = Command::default();
+                }
+                Decision::Hold(_) => {
+                    held_ticks += 1;
+                    route.hold();
+                    command = Command::default();
+                }
             }
         }
         if let Some(t) = telemetry.as_mut() {
@@ -531,6 +545,7 @@ fn run_sized<const W: usize, const H: usize>(
         max_jump_cm: max_jump_cm(&ticks),
         collisions: robot.collisions(),
         guard_stops,
+        held_ticks,
         route_cut_at_s,
         estimator: estimator_figures(&ticks, Some(true_calibration)),
     };
@@ -547,6 +562,10 @@ fn run_sized<const W: usize, const H: usize>(
         figures,
         frames,
     })
+}
+
+fn is_zero(n: &u32) -> bool {
+    *n == 0
 }
 
 /// The largest tick-to-tick change of the error vector (estimate minus truth), cm.

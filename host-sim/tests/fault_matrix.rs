@@ -2,7 +2,7 @@
 //! 5 s into the route, on seeds 1 to 20, beside the same runs without the fault.
 
 use host_sim::fault_matrix::{run_matrix, table, CaseFigures, Window};
-use host_sim::run::PoseMode;
+use host_sim::run::{run_with, PoseMode, RunOptions};
 
 const WINDOW: Window = Window {
     start_s: 5.0,
@@ -15,6 +15,17 @@ fn matrix() -> Vec<CaseFigures> {
     run_matrix(&scenario, PoseMode::Filter, &seeds, WINDOW, None).expect("matrix")
 }
 
+/// The cases that miss a target today, each with why: a plausible but false reading
+/// that no check on the reading alone can tell from the truth.
+const MISSED: [&str; 3] = [
+    // Every range 15 cm long: walls drawn 15 cm out.
+    "depth-wrong",
+    // Scans three ticks late, mapped at the pose of now, mid-turn.
+    "depth-slow",
+    // A 3 deg/s bias jump mid-turn: 9 degrees gone before anything looks wrong.
+    "gyro-wrong",
+];
+
 #[test]
 fn every_case_runs_on_every_seed_without_a_panic() {
     let cases = matrix();
@@ -22,22 +33,34 @@ fn every_case_runs_on_every_seed_without_a_panic() {
     for c in &cases {
         assert_eq!((c.seeds, c.panics), (20, 0), "{}", table(&cases));
     }
-    // The faults reach the core: losing the gyro mid-turn must show.
-    let gyro_off = cases
-        .iter()
-        .find(|c| c.case == "gyro-off")
-        .expect("gyro-off");
-    assert!(!gyro_off.meets_targets(), "{}", table(&cases));
 }
 
 #[test]
-#[ignore = "issue 14's targets: the robot does not yet stop trusting a failed input"]
-fn every_case_keeps_the_map_and_recovers() {
+fn a_lost_gyro_holds_the_route_and_keeps_the_map() {
+    let scenario = world::shipped::scenario("seed-mat.toml");
+    let base = run_with(&scenario, PoseMode::Filter, 1, RunOptions::default()).expect("run");
+    let faults = ["gyro-off@5/3".parse().expect("fault")];
+    let options = RunOptions {
+        faults: &faults,
+        ..RunOptions::default()
+    };
+    let lost = run_with(&scenario, PoseMode::Filter, 1, options).expect("run");
+    // The fault reaches the core: the route stands for about the 3 s, and is 3 s longer.
+    let held = lost.figures.held_ticks;
+    assert!((30..=36).contains(&held), "{held} ticks held");
+    assert_eq!(base.figures.held_ticks, 0);
+    assert!(lost.figures.ticks >= base.figures.ticks + 30);
+    assert_eq!(lost.figures.out_of_place, base.figures.out_of_place);
+}
+
+#[test]
+fn every_case_but_the_listed_keeps_the_map_and_recovers() {
     let cases = matrix();
     let missed: Vec<&str> = cases
         .iter()
         .filter(|c| !c.meets_targets())
         .map(|c| c.case.as_str())
         .collect();
-    assert!(missed.is_empty(), "missed: {missed:?}\n{}", table(&cases));
+    // A listed case that starts to pass is taken off the list.
+    assert_eq!(missed, MISSED, "\n{}", table(&cases));
 }

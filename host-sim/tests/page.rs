@@ -197,6 +197,7 @@ fn tick(n: u32) -> Message {
         fix: FixOutcome::NotAttempted,
         stale: 0,
         cells_written: 0,
+        doubts: 0,
         counters: Counters {
             ticks: n,
             ..Counters::default()

@@ -1,9 +1,16 @@
 //! The guard: may the robot drive the next tick, by what it believes?
 //!
-//! One pure function, [`decide`], of the estimate, the map, the latest depth scan and the
-//! command about to be driven. The firmware and the simulator both call it every tick.
+//! One pure function, [`decide`], of the estimate, the map, the latest depth scan, the
+//! core's trust in its inputs and the command about to be driven. The firmware and the
+//! simulator both call it every tick.
 //!
 //! # Policy
+//!
+//! A motion whose input is doubted ([`crate::plausible`]) holds: a turn needs the gyro,
+//! a drive the gyro and the flow. The robot stands and the route step waits (it is not
+//! skipped), so the pose, which the core then takes as still, stays true, and the route
+//! goes on where it stopped once the input is trusted again. A doubted scan is not
+//! looked at; the map decides alone.
 //!
 //! The body is a circle about the turning axis, so a turn on the spot sweeps nothing new:
 //! turns always go. A drive sweeps a stadium: every point within the body's radius `r` of
@@ -36,6 +43,7 @@
 use crate::angle::{Angle, TRIG_ONE};
 use crate::frame::{DepthScan, BEAMS};
 use crate::grid::{GridMap, Occupancy};
+use crate::plausible::{Input, Trust};
 use crate::pose::Pose;
 use crate::slam::fan;
 
@@ -122,6 +130,9 @@ pub enum Decision {
     Go,
     /// Stand still this tick and skip the rest of the route step.
     Stop(Obstacle),
+    /// Stand still this tick and keep the route step for later: the input the motion
+    /// needs is doubted.
+    Hold(Input),
 }
 
 impl Decision {
@@ -131,8 +142,9 @@ impl Decision {
     }
 }
 
-/// Whether `command` may be driven for the next tick from `pose`, given the map and the
-/// latest depth scan (`None`: no scan, the map alone decides). See the module docs.
+/// Whether `command` may be driven for the next tick from `pose`, given the map, the
+/// latest depth scan (`None`: no scan, the map alone decides) and the core's trust in
+/// its inputs. See the module docs.
 ///
 /// Out of line, as is its map walk: the firmware builds the core for speed, and this
 /// once-a-tick check need not be unrolled into its caller.
@@ -142,11 +154,16 @@ pub fn decide<const W: usize, const H: usize>(
     pose: &Pose,
     map: &GridMap<W, H>,
     scan: Option<&DepthScan>,
+    trust: &Trust,
     command: DriveCommand,
 ) -> Decision {
+    if let Some(input) = trust.lacking(command.turn_mdps != 0, command.speed_mm_s != 0) {
+        return Decision::Hold(input);
+    }
     if command.speed_mm_s == 0 {
         return Decision::Go;
     }
+    let scan = scan.filter(|_| trust.depth.is_none());
     let forward = command.speed_mm_s > 0;
     let reach = i64::from(config.reach_mm(command.speed_mm_s.unsigned_abs()));
     let radius = i64::from(config.radius_mm);
@@ -228,6 +245,7 @@ fn occupied_in_stadium<const W: usize, const H: usize>(
 mod tests {
     use super::*;
     use crate::grid::{Evidence, GridGeometry, LOG_ODDS_ONE};
+    use crate::plausible::Doubt;
 
     const GEOMETRY: GridGeometry = GridGeometry {
         cell_mm: 50,
@@ -237,6 +255,11 @@ mod tests {
     type Map = GridMap<46, 46>;
 
     const CONFIG: GuardConfig = GuardConfig::SEED;
+    const TRUSTED: Trust = Trust {
+        gyro: None,
+        flow: None,
+        depth: None,
+    };
     const AHEAD: DriveCommand = DriveCommand {
         speed_mm_s: 86,
         turn_mdps: 0,
@@ -287,23 +310,45 @@ mod tests {
         let map = empty_map();
         let safe = i64::from(CONFIG.safe_distance_mm(86));
         for distance in [20, 60, 90, safe - 1] {
-            let decision = decide(&CONFIG, &POSE, &map, Some(&wall_ahead(distance)), AHEAD);
+            let decision = decide(
+                &CONFIG,
+                &POSE,
+                &map,
+                Some(&wall_ahead(distance)),
+                &TRUSTED,
+                AHEAD,
+            );
             assert!(
                 matches!(decision, Decision::Stop(Obstacle::Beam(_))),
                 "{distance}"
             );
         }
         for distance in [safe + 1, 150, 400, 2000] {
-            let decision = decide(&CONFIG, &POSE, &map, Some(&wall_ahead(distance)), AHEAD);
+            let decision = decide(
+                &CONFIG,
+                &POSE,
+                &map,
+                Some(&wall_ahead(distance)),
+                &TRUSTED,
+                AHEAD,
+            );
             assert_eq!(decision, Decision::Go, "{distance}");
         }
         // Faster, a wall beyond the safe distance at 86 mm/s is inside it (145 mm at 300).
-        assert!(decide(&CONFIG, &POSE, &map, Some(&wall_ahead(140)), AHEAD).is_go());
+        assert!(decide(
+            &CONFIG,
+            &POSE,
+            &map,
+            Some(&wall_ahead(140)),
+            &TRUSTED,
+            AHEAD
+        )
+        .is_go());
         let fast = DriveCommand {
             speed_mm_s: 300,
             ..AHEAD
         };
-        let decision = decide(&CONFIG, &POSE, &map, Some(&wall_ahead(140)), fast);
+        let decision = decide(&CONFIG, &POSE, &map, Some(&wall_ahead(140)), &TRUSTED, fast);
         assert!(!decision.is_go());
     }
 
@@ -319,10 +364,51 @@ mod tests {
             },
         ] {
             assert_eq!(
-                decide(&CONFIG, &POSE, &map, Some(&scan), command),
+                decide(&CONFIG, &POSE, &map, Some(&scan), &TRUSTED, command),
                 Decision::Go
             );
         }
+    }
+
+    #[test]
+    fn a_motion_whose_input_is_doubted_holds() {
+        let map = empty_map();
+        let turn = DriveCommand {
+            speed_mm_s: 0,
+            turn_mdps: 31_500,
+        };
+        let no_gyro = Trust {
+            gyro: Some(Doubt::Stuck),
+            ..TRUSTED
+        };
+        let no_flow = Trust {
+            flow: Some(Doubt::Impossible),
+            ..TRUSTED
+        };
+        let hold = Decision::Hold(Input::Gyro);
+        assert_eq!(decide(&CONFIG, &POSE, &map, None, &no_gyro, turn), hold);
+        assert_eq!(decide(&CONFIG, &POSE, &map, None, &no_gyro, AHEAD), hold);
+        assert!(!hold.is_go());
+        // A turn on the spot needs no flow; a drive does.
+        assert!(decide(&CONFIG, &POSE, &map, None, &no_flow, turn).is_go());
+        assert_eq!(
+            decide(&CONFIG, &POSE, &map, None, &no_flow, AHEAD),
+            Decision::Hold(Input::Flow)
+        );
+        // Standing still needs nothing.
+        let still = DriveCommand::default();
+        assert!(decide(&CONFIG, &POSE, &map, None, &no_gyro, still).is_go());
+    }
+
+    #[test]
+    fn a_doubted_scan_is_not_looked_at() {
+        let stuck = Trust {
+            depth: Some(Doubt::Stuck),
+            ..TRUSTED
+        };
+        let wall = wall_ahead(60);
+        assert!(!decide(&CONFIG, &POSE, &empty_map(), Some(&wall), &TRUSTED, AHEAD).is_go());
+        assert!(decide(&CONFIG, &POSE, &empty_map(), Some(&wall), &stuck, AHEAD).is_go());
     }
 
     #[test]
@@ -335,20 +421,27 @@ mod tests {
             scan.ranges_mm[i] = Some((75 * i64::from(TRIG_ONE) / sin) as u16);
         }
         assert_eq!(
-            decide(&CONFIG, &POSE, &empty_map(), Some(&scan), AHEAD),
+            decide(&CONFIG, &POSE, &empty_map(), Some(&scan), &TRUSTED, AHEAD),
             Decision::Go
         );
         // The same return a beam nearer the nose is in the path.
         let mut near_nose = DepthScan::default();
         near_nose.ranges_mm[3] = Some(90);
         assert_eq!(
-            decide(&CONFIG, &POSE, &empty_map(), Some(&near_nose), AHEAD),
+            decide(
+                &CONFIG,
+                &POSE,
+                &empty_map(),
+                Some(&near_nose),
+                &TRUSTED,
+                AHEAD
+            ),
             Decision::Stop(Obstacle::Beam(3))
         );
         // A mapped wall parallel to the path, its cells' centres 125 mm to the side.
         let wall: [(i32, i32); 6] = core::array::from_fn(|i| (1125, 900 + 50 * i as i32));
         assert_eq!(
-            decide(&CONFIG, &POSE, &map_with(&wall), None, AHEAD),
+            decide(&CONFIG, &POSE, &map_with(&wall), None, &TRUSTED, AHEAD),
             Decision::Go
         );
     }
@@ -356,17 +449,20 @@ mod tests {
     #[test]
     fn dropouts_say_nothing() {
         let map = empty_map();
-        assert_eq!(decide(&CONFIG, &POSE, &map, None, AHEAD), Decision::Go);
+        assert_eq!(
+            decide(&CONFIG, &POSE, &map, None, &TRUSTED, AHEAD),
+            Decision::Go
+        );
         let blank = DepthScan::default();
         assert_eq!(
-            decide(&CONFIG, &POSE, &map, Some(&blank), AHEAD),
+            decide(&CONFIG, &POSE, &map, Some(&blank), &TRUSTED, AHEAD),
             Decision::Go
         );
         // One beam left of a close wall still stops.
         let mut one = DepthScan::default();
         one.ranges_mm[5] = wall_ahead(50).ranges_mm[5];
         assert_eq!(
-            decide(&CONFIG, &POSE, &map, Some(&one), AHEAD),
+            decide(&CONFIG, &POSE, &map, Some(&one), &TRUSTED, AHEAD),
             Decision::Stop(Obstacle::Beam(5))
         );
     }
@@ -378,25 +474,28 @@ mod tests {
         let (c, r) = GEOMETRY.cell_of(1055, 1095);
         let blind = DepthScan::default();
         assert_eq!(
-            decide(&CONFIG, &POSE, &map, Some(&blind), AHEAD),
+            decide(&CONFIG, &POSE, &map, Some(&blind), &TRUSTED, AHEAD),
             Decision::Stop(Obstacle::Cell { column: c, row: r })
         );
         // Facing away from it, or driving past it further off, the robot goes.
         let away = Pose::from_mm_mdeg(1000, 1000, 180_000);
         assert_eq!(
-            decide(&CONFIG, &away, &map, Some(&blind), AHEAD),
+            decide(&CONFIG, &away, &map, Some(&blind), &TRUSTED, AHEAD),
             Decision::Go
         );
         let further = map_with(&[(1000, 1300)]);
-        assert_eq!(decide(&CONFIG, &POSE, &further, None, AHEAD), Decision::Go);
+        assert_eq!(
+            decide(&CONFIG, &POSE, &further, None, &TRUSTED, AHEAD),
+            Decision::Go
+        );
         // Backing into it: only the map can tell.
         let reverse = DriveCommand {
             speed_mm_s: -86,
             turn_mdps: 0,
         };
-        assert!(!decide(&CONFIG, &away, &map, Some(&blind), reverse).is_go());
+        assert!(!decide(&CONFIG, &away, &map, Some(&blind), &TRUSTED, reverse).is_go());
         assert_eq!(
-            decide(&CONFIG, &POSE, &map, Some(&blind), reverse),
+            decide(&CONFIG, &POSE, &map, Some(&blind), &TRUSTED, reverse),
             Decision::Go
         );
     }
@@ -407,14 +506,17 @@ mod tests {
         // not facing north (it is then behind the centre).
         let map = map_with(&[(1075, 975)]);
         let east = Pose::from_mm_mdeg(1000, 1000, 90_000);
-        assert!(!decide(&CONFIG, &east, &map, None, AHEAD).is_go());
+        assert!(!decide(&CONFIG, &east, &map, None, &TRUSTED, AHEAD).is_go());
         let north_east = Pose::from_mm_mdeg(1000, 1000, 45_000);
-        assert!(!decide(&CONFIG, &north_east, &map, None, AHEAD).is_go());
-        assert_eq!(decide(&CONFIG, &POSE, &map, None, AHEAD), Decision::Go);
+        assert!(!decide(&CONFIG, &north_east, &map, None, &TRUSTED, AHEAD).is_go());
+        assert_eq!(
+            decide(&CONFIG, &POSE, &map, None, &TRUSTED, AHEAD),
+            Decision::Go
+        );
         // Near the grid's edge nothing is read outside it.
         let corner = Pose::from_mm_mdeg(-140, -140, 225_000);
         assert_eq!(
-            decide(&CONFIG, &corner, &empty_map(), None, AHEAD),
+            decide(&CONFIG, &corner, &empty_map(), None, &TRUSTED, AHEAD),
             Decision::Go
         );
     }

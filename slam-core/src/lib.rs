@@ -21,6 +21,7 @@ pub mod history;
 mod lcg;
 pub mod matcher;
 pub mod odometry;
+pub mod plausible;
 pub mod pose;
 pub mod slam;
 pub mod tagfix;
@@ -35,6 +36,7 @@ pub use frame::{
 pub use grid::{Evidence, GridGeometry, GridMap, LogOdds, Occupancy, OccupancyCounts};
 pub use guard::{decide, Decision, DriveCommand, GuardConfig, Obstacle};
 pub use odometry::OdometryConfig;
+pub use plausible::{Doubt, Input, PlausibleConfig, Trust};
 pub use pose::Pose;
 pub use slam::{
     ConfigError, Counters, DepthConfig, Localiser, MatchingConfig, Slam, SlamConfig, Staleness,

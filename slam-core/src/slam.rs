@@ -5,13 +5,14 @@ use crate::estimator::{
     Estimate, Estimator, EstimatorConfig, MapUncertainty, MatchCounters, MatchNoise, TagCounters,
     TagRefusal,
 };
-use crate::frame::{DepthScan, SensorFrame, BEAMS};
+use crate::frame::{DepthScan, FlowDelta, GyroRate, SensorFrame, BEAMS};
 use crate::grid::{Evidence, GridGeometry, GridMap};
 use crate::history::PoseHistory;
 use crate::matcher::{Match, MatcherConfig, SeedMatcher};
 #[cfg(feature = "matching")]
 use crate::matcher::{Sweep, SWEEP_TICKS};
 use crate::odometry::{self, OdometryConfig};
+use crate::plausible::{Judged, Known, Plausibility, PlausibleConfig, Trust};
 use crate::pose::{mul_q16, Pose, RigidMotion};
 use crate::tagfix::{self, CameraConfig, FixConfig, FixOutcome, FixRejection, TagMap};
 
@@ -70,6 +71,9 @@ pub struct SlamConfig {
     pub estimator: EstimatorConfig,
     /// Scan-to-map matching as a filter update ([`Localiser::Filter`] only); `None`: off.
     pub matching: Option<MatchingConfig>,
+    /// What the inputs are held to before the pose and the map believe them; `None`:
+    /// every reading is believed (for tests of the odometry and the filter alone).
+    pub plausible: Option<PlausibleConfig>,
 }
 
 /// The matcher and what the filter adds to its matches' spread.
@@ -136,6 +140,7 @@ impl SlamConfig {
             fix: FixConfig::SEED,
             estimator: EstimatorConfig::SEED,
             matching: None,
+            plausible: Some(PlausibleConfig::SEED),
         }
     }
 
@@ -195,6 +200,14 @@ pub struct Counters {
     pub gyro_stale: u32,
     /// Ticks without a depth scan (nothing mapped).
     pub depth_stale: u32,
+    /// Ticks the gyro was doubted ([`crate::plausible`]).
+    pub gyro_doubted: u32,
+    /// Ticks the flow was doubted.
+    pub flow_doubted: u32,
+    /// Ticks the depth sensor was doubted.
+    pub depth_doubted: u32,
+    /// Scans not mapped because the pose or the scan could not be vouched for.
+    pub scans_withheld: u32,
 }
 
 /// Which inputs a tick lacked.
@@ -219,6 +232,8 @@ pub struct StepReport {
     pub fix: FixOutcome,
     /// Inputs missing this tick.
     pub stale: Staleness,
+    /// Inputs doubted after this tick, and why: the motion that needs one holds.
+    pub trust: Trust,
     /// Grid cells written this tick.
     pub cells_written: u32,
     /// Totals since start.
@@ -247,6 +262,8 @@ pub struct Slam<const W: usize, const H: usize> {
     last_match: Option<Match>,
     /// How far the map may be off, for the matches against it.
     map_uncertainty: MapUncertainty,
+    /// The inputs' checks and trust.
+    plausibility: Plausibility,
 }
 
 impl<const W: usize, const H: usize> Slam<W, H> {
@@ -272,6 +289,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             match_counters: MatchCounters::default(),
             last_match: None,
             map_uncertainty: MapUncertainty::default(),
+            plausibility: Plausibility::default(),
         })
     }
 
@@ -288,6 +306,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         self.match_counters = MatchCounters::default();
         self.last_match = None;
         self.map_uncertainty = MapUncertainty::default();
+        self.plausibility = Plausibility::default();
     }
 
     /// Matches used and refused, by cause ([`SlamConfig::matching`]).
@@ -354,6 +373,18 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         self.counters.gyro_stale += stale.gyro as u32;
         self.counters.depth_stale += stale.depth as u32;
 
+        let judged = match &self.config.plausible {
+            Some(limits) => {
+                self.plausibility
+                    .judge(frame.gyro, frame.flow, frame.depth.as_ref(), limits)
+            }
+            None => Judged::believing(frame.gyro, frame.flow),
+        };
+        let trust = judged.trust;
+        self.counters.gyro_doubted += trust.gyro.is_some() as u32;
+        self.counters.flow_doubted += trust.flow.is_some() as u32;
+        self.counters.depth_doubted += trust.depth.is_some() as u32;
+
         let fix = match frame.external_pose {
             Some(p) => {
                 self.pose = p;
@@ -361,24 +392,37 @@ impl<const W: usize, const H: usize> Slam<W, H> {
                 FixOutcome::NotAttempted
             }
             None if self.config.localiser == Localiser::Filter => {
-                self.predict_filtered(frame);
+                self.predict_filtered(frame.dt_us, judged.flow, judged.gyro);
                 self.filter_tags(frame)
             }
             None => {
-                let motion =
-                    odometry::motion(frame.flow, frame.gyro, frame.dt_us, &self.config.odometry);
+                let motion = odometry::motion(
+                    judged.flow.reading(),
+                    judged.gyro.reading(),
+                    frame.dt_us,
+                    &self.config.odometry,
+                );
                 self.pose = odometry::apply(&self.pose, &motion);
                 self.history.push(self.pose, frame.dt_us);
                 self.correct(frame)
             }
         };
 
+        // A scan goes in only at a pose the core can vouch for (its odometry trusted, or
+        // a pose from outside) and only if the scan itself is believed.
+        let vouched = trust.depth.is_none() && (frame.external_pose.is_some() || trust.pose());
         // The scan goes in at the pose of its own moment (after any fix has moved the
         // remembered poses); one older than the history reaches is as good as none.
         // The history is consulted only when there is a scan to place.
         let scan = frame
             .depth
             .as_ref()
+            .filter(|_| {
+                vouched || {
+                    self.counters.scans_withheld += 1;
+                    false
+                }
+            })
             .map(|scan| (scan, self.history.at(frame.depth_age_us)));
         let cells_written = match scan {
             #[cfg(feature = "matching")]
@@ -397,6 +441,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             pose: self.pose,
             fix,
             stale,
+            trust,
             cells_written,
             counters: self.counters,
             estimate: self.estimate(),
@@ -404,20 +449,20 @@ impl<const W: usize, const H: usize> Slam<W, H> {
     }
 
     /// Dead reckoning with the learned calibration, and the covariance carried along.
-    fn predict_filtered(&mut self, frame: &SensorFrame) {
+    fn predict_filtered(&mut self, dt_us: u32, flow: Known<FlowDelta>, gyro: Known<GyroRate>) {
         let odometry = self.estimator.odometry(&self.config.odometry);
-        let gyro = frame.gyro.map(|g| self.estimator.correct_gyro(g));
-        let motion = odometry::motion(frame.flow, gyro, frame.dt_us, &odometry);
+        let rate = gyro.reading().map(|g| self.estimator.correct_gyro(g));
+        let motion = odometry::motion(flow.reading(), rate, dt_us, &odometry);
         let before = self.pose;
         self.pose = odometry::apply(&before, &motion);
-        self.history.push(self.pose, frame.dt_us);
+        self.history.push(self.pose, dt_us);
         self.estimator.predict(
             &before,
             &self.pose,
             &motion,
-            frame.dt_us,
-            frame.flow.is_some(),
-            gyro.is_some(),
+            dt_us,
+            flow.kind(),
+            gyro.kind(),
         );
     }
 

@@ -137,8 +137,11 @@ fn drive(
     age_us: u32,
     told_age_us: u32,
 ) -> (Slam<46, 46>, Vec<StepReport>) {
-    let mut slam: Slam<46, 46> =
-        Slam::new(world::shipped::seed_robot().config, to_pose(&m.start)).unwrap();
+    let mut slam: Slam<46, 46> = Slam::new(
+        unchecked(world::shipped::seed_robot().config),
+        to_pose(&m.start),
+    )
+    .unwrap();
     let mut reports = Vec::new();
     for k in 1..=ticks {
         let (flow, gyro) = m.odometry(k);
@@ -270,7 +273,7 @@ fn a_fix_moves_the_remembered_poses_too() {
         heading: to_pose(&m.start).heading - Angle::from_millidegrees(15_000),
     };
     let mut slam: Slam<46, 46> =
-        Slam::new(world::shipped::seed_robot().config, wrong_start).unwrap();
+        Slam::new(unchecked(world::shipped::seed_robot().config), wrong_start).unwrap();
     for k in 1..=10 {
         let (flow, gyro) = m.odometry(k);
         let mut frame = SensorFrame::empty(DT_US);
@@ -309,8 +312,11 @@ fn too_old_pictures_are_refused_and_counted() {
     };
 
     // At the first tick the history holds the start and this tick: one tick back.
-    let mut slam: Slam<46, 46> =
-        Slam::new(world::shipped::seed_robot().config, to_pose(&m.start)).unwrap();
+    let mut slam: Slam<46, 46> = Slam::new(
+        unchecked(world::shipped::seed_robot().config),
+        to_pose(&m.start),
+    )
+    .unwrap();
     let mut frame = SensorFrame::empty(DT_US);
     frame.tags = tags_then(0, 0);
     frame.tags_age_us = DT_US + 1;
@@ -409,7 +415,7 @@ proptest! {
         prop_assert_eq!(r.fix, FixOutcome::Taken);
         prop_assert_eq!(r.pose, *slam.pose());
 
-        let config = world::shipped::seed_robot().config;
+        let config = unchecked(world::shipped::seed_robot().config);
         let (a, b) = tagfix::best_pair(seen.as_slice(), &config.tags).unwrap();
         let fix = tagfix::two_tag_pose(a, b, &config.camera, &config.fix).unwrap();
         let (fx, fy, fh) = (fix.x_um as f64 / 1000.0, fix.y_um as f64 / 1000.0, bits_to_rad(fix.heading.bits()));
@@ -527,7 +533,7 @@ proptest! {
         start in (300i32..1700, 300i32..1300, -40_000i64..40_000),
         frames in proptest::collection::vec(ageless_frame(), 1..60),
     ) {
-        let config = world::shipped::seed_robot().config;
+        let config = unchecked(world::shipped::seed_robot().config);
         let start = Pose::from_mm_mdeg(start.0, start.1, start.2);
         let mut slam: Slam<46, 46> = Slam::new(config, start).unwrap();
         let mut old = AgelessCore {
@@ -581,7 +587,8 @@ fn old_scans_map_at_the_pose_of_their_moment() {
     let start = Pose::from_mm_mdeg(700, 500, 10_000);
 
     // Mapped when taken: on the tick it was measured, then a tick of turning.
-    let mut then = Slam::<46, 46>::new(world::shipped::seed_robot().config, start).unwrap();
+    let mut then =
+        Slam::<46, 46>::new(unchecked(world::shipped::seed_robot().config), start).unwrap();
     let mut f = SensorFrame::empty(DT_US);
     turning(&mut f);
     then.step(&f);
@@ -591,7 +598,8 @@ fn old_scans_map_at_the_pose_of_their_moment() {
     then.step(&f);
 
     // Mapped a tick late, told its age.
-    let mut late = Slam::<46, 46>::new(world::shipped::seed_robot().config, start).unwrap();
+    let mut late =
+        Slam::<46, 46>::new(unchecked(world::shipped::seed_robot().config), start).unwrap();
     let mut f = SensorFrame::empty(DT_US);
     turning(&mut f);
     late.step(&f);
@@ -604,7 +612,8 @@ fn old_scans_map_at_the_pose_of_their_moment() {
     assert_eq!(late.map().rows(), then.map().rows());
 
     // Mapped a tick late as if new: a different (smeared) map.
-    let mut blind = Slam::<46, 46>::new(world::shipped::seed_robot().config, start).unwrap();
+    let mut blind =
+        Slam::<46, 46>::new(unchecked(world::shipped::seed_robot().config), start).unwrap();
     let mut f = SensorFrame::empty(DT_US);
     turning(&mut f);
     blind.step(&f);
@@ -620,4 +629,14 @@ fn old_scans_map_at_the_pose_of_their_moment() {
     assert!(report.stale.depth);
     assert_eq!(report.cells_written, 0);
     assert_eq!(late.counters().depth_stale, before + 1);
+}
+
+/// `config` without the plausibility checks (`slam_core::plausible`): these inputs are
+/// synthetic (constant rates, repeated frames, a robot that never holds), and the checks
+/// are not what this file tests.
+fn unchecked(config: slam_core::SlamConfig) -> slam_core::SlamConfig {
+    slam_core::SlamConfig {
+        plausible: None,
+        ..config
+    }
 }

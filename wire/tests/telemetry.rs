@@ -3,9 +3,9 @@
 
 use proptest::prelude::*;
 use slam_core::{
-    Angle, Calibration, Counters, DepthScan, Evidence, FixOutcome, FixRejection, FlowDelta,
+    Angle, Calibration, Counters, DepthScan, Doubt, Evidence, FixOutcome, FixRejection, FlowDelta,
     GridGeometry, GridMap, GyroRate, Localiser, Pose, PoseCovariance, SensorFrame, Staleness,
-    StepReport, TagCounters, TagDetection, TagDetections, BEAMS, MAX_TAGS,
+    StepReport, TagCounters, TagDetection, TagDetections, Trust, BEAMS, MAX_TAGS,
 };
 use wire::framing::{cobs_encode, crc16};
 use wire::telemetry::*;
@@ -82,6 +82,11 @@ fn tick() -> Message {
         fix: FixOutcome::Rejected(FixRejection::Gate),
         stale: STALE_FLOW | STALE_DEPTH,
         cells_written: 77,
+        doubts: Trust {
+            gyro: Some(Doubt::Stuck),
+            ..Trust::default()
+        }
+        .packed(),
         counters: Counters {
             ticks: 137,
             fixes_taken: 12,
@@ -94,6 +99,10 @@ fn tick() -> Message {
             flow_stale: 3,
             gyro_stale: 0,
             depth_stale: 1,
+            gyro_doubted: 6,
+            flow_doubted: 0,
+            depth_doubted: 2,
+            scans_withheld: 8,
         },
     })
 }
@@ -218,7 +227,7 @@ fn health_frame_fixture() {
         gyro_start_failures: 2,
         ..SensorHealth::default()
     });
-    let stuffed = sealed(&[0xB5, 3, 0, 1, 0xAC, 0x02, 0, 0, 0, 0, 0, 0, 0, 0, 2]);
+    let stuffed = sealed(&[0xB6, 3, 0, 1, 0xAC, 0x02, 0, 0, 0, 0, 0, 0, 0, 0, 2]);
     assert_eq!(frame(&h), stuffed);
     // No zero before the delimiter.
     assert!(!stuffed[..stuffed.len() - 1].contains(&0));
@@ -251,7 +260,7 @@ fn filter_frame_fixture() {
         },
     });
     let raw = [
-        0xB5, 4, 2, 0xD8, 0x04, 1, 0, 0, 0, 0x80, 0x80, 0x08, 3, 0, 0x80, 0x01, 5, 0, 0, 1, 0, 2,
+        0xB6, 4, 2, 0xD8, 0x04, 1, 0, 0, 0, 0x80, 0x80, 0x08, 3, 0, 0x80, 0x01, 5, 0, 0, 1, 0, 2,
     ];
     assert_eq!(frame(&m), sealed(&raw));
     assert_eq!(decode_all(&sealed(&raw)).0, std::vec![Ok(m)]);
@@ -282,7 +291,7 @@ fn hello_carries_the_localiser() {
     if let Some(last) = body.last_mut() {
         *last = 3;
     }
-    let mut raw = std::vec![0xB5];
+    let mut raw = std::vec![0xB6];
     raw.extend(body);
     assert_eq!(
         decode_all(&sealed(&raw)).0,
@@ -298,7 +307,7 @@ fn inputs_frame_fixture() {
         time_ms: 2,
         frame: SensorFrame::empty(3),
     });
-    let raw = [0xB5, 5, 1, 2, 3, 0, 0, 0, 0, 0, 0, 0];
+    let raw = [0xB6, 5, 1, 2, 3, 0, 0, 0, 0, 0, 0, 0];
     assert_eq!(frame(&m), sealed(&raw));
     assert_eq!(decode_all(&sealed(&raw)).0, std::vec![Ok(m)]);
     // One tag (id 11, cx -1 zigzagged to 1, 300 mm) and a gyro reading of 5 mdps.
@@ -317,13 +326,13 @@ fn inputs_frame_fixture() {
             ..SensorFrame::empty(3)
         },
     });
-    let raw = [0xB5, 5, 1, 2, 3, 0, 1, 10, 0, 0, 1, 11, 1, 0xAC, 0x02, 0, 0];
+    let raw = [0xB6, 5, 1, 2, 3, 0, 1, 10, 0, 0, 1, 11, 1, 0xAC, 0x02, 0, 0];
     assert_eq!(frame(&m), sealed(&raw));
 }
 
 #[test]
 fn inputs_with_more_tags_than_the_core_holds_are_refused() {
-    let mut raw = std::vec![0xB5, 5, 1, 2, 3, 0, 0, 0, 0];
+    let mut raw = std::vec![0xB6, 5, 1, 2, 3, 0, 0, 0, 0];
     raw.push(u8::try_from(MAX_TAGS + 1).unwrap_or(u8::MAX));
     for _ in 0..=MAX_TAGS {
         raw.extend([1, 0, 0]);
@@ -334,7 +343,7 @@ fn inputs_with_more_tags_than_the_core_holds_are_refused() {
         std::vec![Err(FrameError::Body)]
     );
     // The same with the most it holds decodes.
-    let mut raw = std::vec![0xB5, 5, 1, 2, 3, 0, 0, 0, 0];
+    let mut raw = std::vec![0xB6, 5, 1, 2, 3, 0, 0, 0, 0];
     raw.push(u8::try_from(MAX_TAGS).unwrap_or(u8::MAX));
     for _ in 0..MAX_TAGS {
         raw.extend([1, 0, 0]);
@@ -409,7 +418,12 @@ fn worst_case_messages_fit() {
             flow_stale: u32::MAX,
             gyro_stale: u32::MAX,
             depth_stale: u32::MAX,
+            gyro_doubted: u32::MAX,
+            flow_doubted: u32::MAX,
+            depth_doubted: u32::MAX,
+            scans_withheld: u32::MAX,
         };
+        t.doubts = u16::MAX;
     }
     let all_max = SensorHealth {
         depth_timeouts: u32::MAX,
@@ -460,7 +474,7 @@ fn worst_case_messages_fit() {
     for (m, limit) in [
         (big, 142),
         (worst_inputs(), MAX_FRAME_LEN),
-        (worst_tick, 96),
+        (worst_tick, 119),
         (worst_filter, 116),
         (Message::Health(all_max), 66),
         (worst_hello, 34),
@@ -490,7 +504,7 @@ fn garbage_between_frames_resynchronises() {
     bytes.extend([1, 2, 3, 4, 5, 0]);
     bytes.extend(frame(&tick()));
     bytes.extend([0, 0, 0]); // empty frames: ignored
-    bytes.extend([0xB5, 0x07, 0]); // stuffing that runs past the end
+    bytes.extend([0xB6, 0x07, 0]); // stuffing that runs past the end
     bytes.extend(frame(&health()));
     let (out, stats) = decode_all(&bytes);
     let good: Vec<Message> = out.iter().filter_map(|r| r.clone().ok()).collect();
@@ -562,13 +576,13 @@ fn wrong_version_and_bad_body_are_told_apart() {
     }
 
     for raw in [
-        std::vec![0xB5, 9],                                        // no such variant
-        std::vec![0xB5, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0],             // health cut short
-        std::vec![0xB5, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 7], // a byte left over
-        std::vec![0xB5, 2, 0, 0, 0x81, 0x01],                      // 129 cells announced
-        std::vec![0xB5, 4, 1, 0, 0, 0, 0, 0],                      // filter cut short
-        std::vec![0xB5, 5, 1, 2, 3, 0, 0, 0],                      // inputs cut short
-        std::vec![0xB5, 5, 1, 2, 3, 2],                            // flow option byte 2
+        std::vec![0xB6, 9],                                        // no such variant
+        std::vec![0xB6, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0],             // health cut short
+        std::vec![0xB6, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 7], // a byte left over
+        std::vec![0xB6, 2, 0, 0, 0x81, 0x01],                      // 129 cells announced
+        std::vec![0xB6, 4, 1, 0, 0, 0, 0, 0],                      // filter cut short
+        std::vec![0xB6, 5, 1, 2, 3, 0, 0, 0],                      // inputs cut short
+        std::vec![0xB6, 5, 1, 2, 3, 2],                            // flow option byte 2
     ] {
         assert_eq!(
             decode_all(&sealed(&raw)).0,
@@ -662,6 +676,7 @@ fn the_schedule() {
         pose: Pose::from_mm_mdeg(1, 2, 3),
         fix: FixOutcome::Taken,
         stale: Staleness::default(),
+        trust: Trust::default(),
         cells_written: 3,
         counters: Counters::default(),
         estimate: None,
@@ -708,6 +723,7 @@ fn a_filter_follows_each_tick_with_an_estimate() {
         pose: Pose::from_mm_mdeg(1, 2, 3),
         fix: FixOutcome::NotAttempted,
         stale: Staleness::default(),
+        trust: Trust::default(),
         cells_written: 3,
         counters: Counters {
             ticks: expected.tick,
@@ -763,6 +779,10 @@ fn tick_carries_the_report() {
             gyro: false,
             depth: true,
         },
+        trust: Trust {
+            flow: Some(Doubt::Impossible),
+            ..Trust::default()
+        },
         cells_written: 9,
         counters: Counters {
             ticks: 4,
@@ -773,6 +793,7 @@ fn tick_carries_the_report() {
     let t = Tick::new(300, &report);
     assert_eq!(t.pose(), report.pose);
     assert_eq!(t.staleness(), report.stale);
+    assert_eq!(t.trust(), report.trust);
     assert_eq!(t.tick, 4);
     let (out, _) = decode_all(&frame(&Message::Tick(t)));
     assert_eq!(out, std::vec![Ok(Message::Tick(t))]);
@@ -814,8 +835,10 @@ proptest! {
     #[test]
     fn arbitrary_ticks_round_trip(
         v in proptest::array::uniform17(any::<u32>()),
+        w in proptest::array::uniform4(any::<u32>()),
         fix in 0u8..5,
         stale in any::<u8>(),
+        doubts in any::<u16>(),
         noise in proptest::collection::vec(any::<u8>(), 0..300),
     ) {
         let t = Tick {
@@ -830,10 +853,12 @@ proptest! {
             },
             stale,
             cells_written: v[5],
+            doubts,
             counters: Counters {
                 ticks: v[6], fixes_taken: v[7], fixes_rejected_geometry: v[8],
                 fixes_rejected_gate: v[9], fixes_rejected_too_old: v[16], relocalisations: v[10], beams_mapped: v[11],
                 beams_invalid: v[12], flow_stale: v[13], gyro_stale: v[14], depth_stale: v[15],
+                gyro_doubted: w[0], flow_doubted: w[1], depth_doubted: w[2], scans_withheld: w[3],
             },
         };
         // Noise, a delimiter, then the frame: the frame always comes through.

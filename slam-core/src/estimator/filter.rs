@@ -8,6 +8,7 @@ use super::{Calibration, Estimate, PoseCovariance, State, TagCounters};
 use crate::angle::Angle;
 use crate::frame::GyroRate;
 use crate::odometry::{Motion, OdometryConfig};
+use crate::plausible::Known;
 use crate::pose::Pose;
 
 /// The covariance's floor: no variance ever reaches zero (a filter sure of anything
@@ -150,7 +151,8 @@ impl Estimator {
 
     /// Carries the covariance through one tick's odometry: `before` and `after` are the
     /// poses either side of `motion`, which took `dt_us`; `flow` and `gyro` say whether
-    /// each reading was there.
+    /// each reading was integrated, the robot held still that way (no reading, but the
+    /// motion known: no more noise than a reading's), or nothing was known.
     #[inline(never)]
     pub fn predict(
         &mut self,
@@ -158,9 +160,12 @@ impl Estimator {
         after: &Pose,
         motion: &Motion,
         dt_us: u32,
-        flow: bool,
-        gyro: bool,
+        flow: Known<()>,
+        gyro: Known<()>,
     ) {
+        let read = |k: Known<()>| matches!(k, Known::Read(()));
+        let (flow_read, gyro_read) = (read(flow), read(gyro));
+        let (flow, gyro) = (flow.is_known(), gyro.is_known());
         let dx = units::position_from_um(i64::from(after.x_um) - i64::from(before.x_um));
         let dy = units::position_from_um(i64::from(after.y_um) - i64::from(before.y_um));
         let turn = units::heading_from_bits(motion.turn_bits);
@@ -178,11 +183,11 @@ impl Estimator {
         };
         push((State::X, State::Heading, q16(dy)));
         push((State::Y, State::Heading, q16(-dx)));
-        if flow {
+        if flow_read {
             push((State::X, State::FlowScale, q16(dx)));
             push((State::Y, State::FlowScale, q16(dy)));
         }
-        if gyro {
+        if gyro_read {
             push((State::Heading, State::GyroScale, q16(turn)));
             push((State::Heading, State::GyroBias, q16(-dt)));
         }

@@ -45,6 +45,10 @@ pub(crate) struct CountersDef {
     flow_stale: u32,
     gyro_stale: u32,
     depth_stale: u32,
+    gyro_doubted: u32,
+    flow_doubted: u32,
+    depth_doubted: u32,
+    scans_withheld: u32,
 }
 
 /// [`Localiser`] on the wire: its variant index as a varint.

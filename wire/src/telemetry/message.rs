@@ -8,7 +8,7 @@ use super::{CellScale, SensorHealth, MAX_CHUNK_CELLS};
 use serde::{Deserialize, Serialize};
 use slam_core::{
     Angle, Calibration, Counters, Estimate, FixOutcome, GridMap, Localiser, Pose, PoseCovariance,
-    SensorFrame, Staleness, StepReport, TagCounters,
+    SensorFrame, Staleness, StepReport, TagCounters, Trust,
 };
 
 /// The firmware's version, sent in every [`Hello`].
@@ -102,6 +102,8 @@ pub struct Tick {
     pub stale: u8,
     /// Grid cells written this tick.
     pub cells_written: u32,
+    /// Inputs doubted after this tick, and why: [`Trust::packed`] ([`Tick::trust`]).
+    pub doubts: u16,
     /// The core's totals since start.
     #[serde(with = "CountersDef")]
     pub counters: Counters,
@@ -129,6 +131,7 @@ impl Tick {
                 | (u8::from(s.gyro) * STALE_GYRO)
                 | (u8::from(s.depth) * STALE_DEPTH),
             cells_written: report.cells_written,
+            doubts: report.trust.packed(),
             counters: report.counters,
         }
     }
@@ -140,6 +143,11 @@ impl Tick {
             y_um: self.y_um,
             heading: Angle::from_bits(self.heading_bits),
         }
+    }
+
+    /// The inputs the core doubted after this tick, and why.
+    pub fn trust(&self) -> Trust {
+        Trust::unpacked(self.doubts)
     }
 
     /// The stale bits as the core's flags; unknown bits are ignored.

@@ -349,6 +349,7 @@ mod tests {
             fix: slam_core::FixOutcome::NotAttempted,
             stale: 0,
             cells_written: 0,
+            doubts: 0,
             counters: slam_core::Counters::default(),
         })
     }

@@ -1,0 +1,625 @@
+//! Plausibility checks on the inputs the pose and the map depend on, and the trust the
+//! core keeps in each.
+//!
+//! A reading can be there and still be wrong: a gyro stuck on one value, a rate or a
+//! flow no robot can make, a reading that moves while the robot was told to stand,
+//! depth frames that repeat bit for bit. Each check here turns one reading into a
+//! verdict; [`Plausibility`] keeps, per input, whether it is trusted: an input is doubted
+//! from its first implausible (or, for the gyro and the flow, missing) reading and
+//! trusted again after [`PlausibleConfig::trust_after_ticks`] plausible readings in a row.
+//!
+//! While the gyro or the flow is doubted the motion code holds the motion that needs it
+//! ([`crate::guard`]), so the core takes a doubted input as reading "still" from the
+//! tick after the doubt began; on that first tick the robot was still moving, and the
+//! last trusted reading stands in for it. A tag that disagrees with the estimate is the
+//! estimator's gate's to refuse (`crate::estimator`).
+
+use crate::frame::{DepthScan, FlowDelta, GyroRate, BEAMS};
+
+/// The limits the checks hold the readings to.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PlausibleConfig {
+    /// Fastest the robot can turn, millidegrees per second: a rate beyond is no robot's.
+    pub max_turn_mdps: u32,
+    /// Most the turn rate can change between two readings, millidegrees per second.
+    pub max_turn_step_mdps: u32,
+    /// Largest rate the gyro may read while the robot is held, millidegrees per second.
+    pub still_turn_mdps: u32,
+    /// Most flow counts a tick can see forwards or backwards: the fastest drive.
+    pub max_flow_counts: u32,
+    /// Most flow counts a tick can see sideways: a wheeled robot does not crab.
+    pub max_side_flow_counts: u32,
+    /// Most flow counts a tick may see on either axis while drives are held.
+    pub still_flow_counts: u32,
+    /// Readings equal bit for bit this many ticks running are a stuck sensor.
+    pub stuck_ticks: u8,
+    /// Furthest the depth sensor can read, millimetres, its noise included: a longer
+    /// range is garbage.
+    pub max_depth_mm: u16,
+    /// Plausible readings in a row before a doubted input is trusted again.
+    pub trust_after_ticks: u8,
+}
+
+impl PlausibleConfig {
+    /// BugBot: wheels at most 300 mm/s on a 100 mm base (344 deg/s flat out; routes
+    /// turn at 31.5), 100 um a flow count, a VL53L5CX ranging to 4 m (a wall there reads
+    /// a little beyond with noise: 4.5 m allowed), 10 Hz ticks.
+    pub const SEED: PlausibleConfig = PlausibleConfig {
+        max_turn_mdps: 344_000,
+        max_turn_step_mdps: 40_000,
+        still_turn_mdps: 2_000,
+        max_flow_counts: 400,
+        max_side_flow_counts: 100,
+        still_flow_counts: 30,
+        stuck_ticks: 5,
+        max_depth_mm: 4_500,
+        trust_after_ticks: 3,
+    };
+}
+
+impl Default for PlausibleConfig {
+    fn default() -> Self {
+        PlausibleConfig::SEED
+    }
+}
+
+/// Why an input is not trusted.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Doubt {
+    /// No reading (after the first): the pose cannot follow the robot.
+    Missing,
+    /// The same reading, bit for bit, tick after tick.
+    Stuck,
+    /// A value the robot or the sensor cannot produce.
+    Impossible,
+    /// A change between two readings faster than the robot can make.
+    Jump,
+    /// Motion read while the robot was held still.
+    MovedWhileHeld,
+}
+
+impl Doubt {
+    /// Every doubt, in the order of [`Doubt::code`].
+    pub const ALL: [Doubt; 5] = [
+        Doubt::Missing,
+        Doubt::Stuck,
+        Doubt::Impossible,
+        Doubt::Jump,
+        Doubt::MovedWhileHeld,
+    ];
+
+    /// A small number for the wire: 1 to 5 (0 is "trusted").
+    pub fn code(self) -> u8 {
+        self as u8 + 1
+    }
+
+    /// The doubt of a [`Doubt::code`]; `None` for 0 or an unknown code.
+    pub fn from_code(code: u8) -> Option<Doubt> {
+        Doubt::ALL.get(usize::from(code).checked_sub(1)?).copied()
+    }
+}
+
+/// The inputs the core checks.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Input {
+    /// The gyro: the heading.
+    Gyro,
+    /// The flow sensor: the position.
+    Flow,
+    /// The depth sensor: the map.
+    Depth,
+}
+
+/// Which inputs are doubted after a tick, and why.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Trust {
+    /// Why the gyro is doubted; `None`: trusted.
+    pub gyro: Option<Doubt>,
+    /// Why the flow is doubted; `None`: trusted.
+    pub flow: Option<Doubt>,
+    /// Why the depth sensor is doubted; `None`: trusted.
+    pub depth: Option<Doubt>,
+}
+
+impl Trust {
+    /// Whether the pose follows the robot: the gyro and the flow are trusted.
+    pub fn pose(&self) -> bool {
+        self.gyro.is_none() && self.flow.is_none()
+    }
+
+    /// The input a motion needs and does not have: turning needs the gyro, driving the
+    /// gyro and the flow. `None`: the motion may go.
+    pub fn lacking(&self, turns: bool, drives: bool) -> Option<Input> {
+        if (turns || drives) && self.gyro.is_some() {
+            Some(Input::Gyro)
+        } else if drives && self.flow.is_some() {
+            Some(Input::Flow)
+        } else {
+            None
+        }
+    }
+
+    /// The three doubts in one number, four bits each (gyro lowest, then flow, then
+    /// depth), each a [`Doubt::code`] or 0: the telemetry's form.
+    pub fn packed(&self) -> u16 {
+        let code = |d: Option<Doubt>| u16::from(d.map_or(0, Doubt::code));
+        code(self.gyro) | (code(self.flow) << 4) | (code(self.depth) << 8)
+    }
+
+    /// The trust [`Trust::packed`] gave; unknown codes read as trusted.
+    pub fn unpacked(packed: u16) -> Trust {
+        let doubt = |shift: u16| Doubt::from_code(((packed >> shift) & 0xF) as u8);
+        Trust {
+            gyro: doubt(0),
+            flow: doubt(4),
+            depth: doubt(8),
+        }
+    }
+}
+
+/// What the odometry knows of one input this tick.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum Known<T> {
+    /// A reading to integrate (the sensor's own, or the last trusted one standing in for
+    /// the tick a doubt began).
+    Read(T),
+    /// The robot was held: it did not move this way.
+    Still,
+    /// Nothing is known: no reading, and the robot was not held.
+    Lost,
+}
+
+impl<T: Copy> Known<T> {
+    /// The reading to integrate, if any.
+    pub fn reading(&self) -> Option<T> {
+        match self {
+            Known::Read(r) => Some(*r),
+            _ => None,
+        }
+    }
+
+    /// Whether the tick's motion this way is known (read or held still).
+    pub fn is_known(&self) -> bool {
+        !matches!(self, Known::Lost)
+    }
+
+    /// Which of the three it is, without the reading.
+    pub fn kind(&self) -> Known<()> {
+        match self {
+            Known::Read(_) => Known::Read(()),
+            Known::Still => Known::Still,
+            Known::Lost => Known::Lost,
+        }
+    }
+}
+
+/// One input's trust: doubted from a bad reading until enough good ones in a row.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+struct Watch {
+    doubt: Option<Doubt>,
+    good_in_a_row: u8,
+}
+
+impl Watch {
+    #[inline(never)]
+    fn judge(&mut self, verdict: Result<(), Doubt>, trust_after: u8) {
+        match verdict {
+            Err(doubt) => {
+                self.doubt = self.doubt.or(Some(doubt));
+                self.good_in_a_row = 0;
+            }
+            Ok(()) if self.doubt.is_some() => {
+                self.good_in_a_row = self.good_in_a_row.saturating_add(1);
+                if self.good_in_a_row >= trust_after {
+                    *self = Watch::default();
+                }
+            }
+            Ok(()) => {}
+        }
+    }
+}
+
+/// How many ticks running a reading has been equal to the one before.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+struct Repeats<T> {
+    last: Option<T>,
+    repeats: u8,
+}
+
+impl<T: PartialEq + Copy> Repeats<T> {
+    /// Takes a reading; returns the reading before it and how many repeats end here.
+    #[inline(never)]
+    fn push(&mut self, reading: T) -> (Option<T>, u8) {
+        let before = self.last.replace(reading);
+        self.repeats = if before == Some(reading) {
+            self.repeats.saturating_add(1)
+        } else {
+            0
+        };
+        (before, self.repeats)
+    }
+}
+
+/// The gyro's checks: a rate no robot turns at, a jump no robot makes, one value stuck,
+/// a turn while held.
+#[inline(never)]
+pub fn check_gyro(
+    rate: GyroRate,
+    before: Option<GyroRate>,
+    repeats: u8,
+    held: bool,
+    config: &PlausibleConfig,
+) -> Result<(), Doubt> {
+    let rate = rate.rate_mdps;
+    if rate.unsigned_abs() > config.max_turn_mdps {
+        return Err(Doubt::Impossible);
+    }
+    if repeats.saturating_add(1) >= config.stuck_ticks {
+        return Err(Doubt::Stuck);
+    }
+    if held && rate.unsigned_abs() > config.still_turn_mdps {
+        return Err(Doubt::MovedWhileHeld);
+    }
+    match before {
+        Some(b) if rate.abs_diff(b.rate_mdps) > config.max_turn_step_mdps => Err(Doubt::Jump),
+        _ => Ok(()),
+    }
+}
+
+/// The flow's checks: a drive faster than the robot's, a sideways slide, one delta
+/// stuck, a drive while held.
+#[inline(never)]
+pub fn check_flow(
+    flow: FlowDelta,
+    repeats: u8,
+    held: bool,
+    config: &PlausibleConfig,
+) -> Result<(), Doubt> {
+    let (forward, side) = (
+        flow.forward_counts.unsigned_abs(),
+        flow.right_counts.unsigned_abs(),
+    );
+    if forward > config.max_flow_counts || side > config.max_side_flow_counts {
+        return Err(Doubt::Impossible);
+    }
+    if repeats.saturating_add(1) >= config.stuck_ticks {
+        return Err(Doubt::Stuck);
+    }
+    if held && forward.max(side) > config.still_flow_counts {
+        return Err(Doubt::MovedWhileHeld);
+    }
+    Ok(())
+}
+
+/// The depth sensor's checks: a range beyond the sensor's, a frame repeated bit for bit
+/// (at once when half its zones returned, where noise makes a repeat all but
+/// impossible; after [`PlausibleConfig::stuck_ticks`] otherwise). A frame with no return
+/// is never stuck: it writes nothing.
+#[inline(never)]
+pub fn check_depth(scan: &DepthScan, repeats: u8, config: &PlausibleConfig) -> Result<(), Doubt> {
+    let returns = scan.ranges_mm.iter().flatten();
+    if returns.clone().any(|r| *r > config.max_depth_mm) {
+        return Err(Doubt::Impossible);
+    }
+    let stuck_after = match returns.count() {
+        0 => return Ok(()),
+        n if n >= BEAMS / 2 => 1,
+        _ => config.stuck_ticks.saturating_sub(1),
+    };
+    if repeats >= stuck_after {
+        return Err(Doubt::Stuck);
+    }
+    Ok(())
+}
+
+/// What the checks made of a tick's odometry.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct Judged {
+    /// The turn to integrate.
+    pub gyro: Known<GyroRate>,
+    /// The travel to integrate.
+    pub flow: Known<FlowDelta>,
+    /// The trust after this tick.
+    pub trust: Trust,
+}
+
+impl Judged {
+    /// Every reading believed, as with no checks at all.
+    pub fn believing(gyro: Option<GyroRate>, flow: Option<FlowDelta>) -> Judged {
+        Judged {
+            gyro: gyro.map_or(Known::Lost, Known::Read),
+            flow: flow.map_or(Known::Lost, Known::Read),
+            trust: Trust::default(),
+        }
+    }
+}
+
+/// The checks' state across ticks.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+pub struct Plausibility {
+    gyro: Watch,
+    flow: Watch,
+    depth: Watch,
+    gyro_repeats: Repeats<GyroRate>,
+    flow_repeats: Repeats<FlowDelta>,
+    depth_repeats: Repeats<DepthScan>,
+    /// The newest trusted readings taken while the robot was not held, to stand in for
+    /// the tick a doubt begins.
+    moving_gyro: Option<GyroRate>,
+    moving_flow: Option<FlowDelta>,
+}
+
+impl Plausibility {
+    /// The trust the last tick ended with.
+    pub fn trust(&self) -> Trust {
+        Trust {
+            gyro: self.gyro.doubt,
+            flow: self.flow.doubt,
+            depth: self.depth.doubt,
+        }
+    }
+
+    /// Judges a tick's readings. The robot is taken as held since the last tick where
+    /// the trust then lacked what its motion needs (turns: the gyro; drives: the flow as
+    /// well). An input never heard from is not doubted for being missing: the robot
+    /// waits for its sensors before it moves.
+    ///
+    /// Out of line: once a tick, and the firmware builds the core for speed.
+    #[inline(never)]
+    pub fn judge(
+        &mut self,
+        gyro: Option<GyroRate>,
+        flow: Option<FlowDelta>,
+        depth: Option<&DepthScan>,
+        config: &PlausibleConfig,
+    ) -> Judged {
+        let before = self.trust();
+        let turn_held = before.lacking(true, false).is_some();
+        let drive_held = before.lacking(false, true).is_some();
+        let after = config.trust_after_ticks;
+
+        let gyro_verdict = match gyro {
+            Some(g) => {
+                let (last, repeats) = self.gyro_repeats.push(g);
+                check_gyro(g, last, repeats, turn_held, config)
+            }
+            None if self.gyro_repeats.last.is_none() => Ok(()),
+            None => Err(Doubt::Missing),
+        };
+        self.gyro.judge(gyro_verdict, after);
+        let flow_verdict = match flow {
+            Some(f) => {
+                let (_, repeats) = self.flow_repeats.push(f);
+                check_flow(f, repeats, drive_held, config)
+            }
+            None if self.flow_repeats.last.is_none() => Ok(()),
+            None => Err(Doubt::Missing),
+        };
+        self.flow.judge(flow_verdict, after);
+        if let Some(scan) = depth {
+            let (_, repeats) = self.depth_repeats.push(*scan);
+            self.depth.judge(check_depth(scan, repeats, config), after);
+        }
+
+        let trust = self.trust();
+        let gyro = known(gyro, trust.gyro, turn_held, &mut self.moving_gyro);
+        let flow = known(flow, trust.flow, drive_held, &mut self.moving_flow);
+        Judged { gyro, flow, trust }
+    }
+}
+
+/// What to integrate of an input: its reading when trusted (or absent unheard: lost);
+/// when doubted, still if the robot was held, else the reading of the last trusted tick
+/// on which it was not held: a held motion resumes as it was when it stopped.
+#[inline(never)]
+fn known<T: Copy>(
+    reading: Option<T>,
+    doubt: Option<Doubt>,
+    held: bool,
+    moving: &mut Option<T>,
+) -> Known<T> {
+    match (doubt, reading) {
+        (None, Some(r)) => {
+            if !held {
+                *moving = Some(r);
+            }
+            Known::Read(r)
+        }
+        (None, None) => Known::Lost,
+        (Some(_), _) if held => Known::Still,
+        (Some(_), _) => moving.map_or(Known::Lost, Known::Read),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const C: PlausibleConfig = PlausibleConfig::SEED;
+
+    fn rate(mdps: i32) -> GyroRate {
+        GyroRate { rate_mdps: mdps }
+    }
+
+    fn flow(forward: i32, right: i32) -> FlowDelta {
+        FlowDelta {
+            forward_counts: forward,
+            right_counts: right,
+        }
+    }
+
+    #[test]
+    fn a_rate_no_robot_turns_at_is_impossible() {
+        assert_eq!(check_gyro(rate(31_500), None, 0, false, &C), Ok(()));
+        assert_eq!(check_gyro(rate(-344_000), None, 0, false, &C), Ok(()));
+        assert_eq!(
+            check_gyro(rate(344_001), None, 0, false, &C),
+            Err(Doubt::Impossible)
+        );
+        assert_eq!(
+            check_gyro(rate(i32::MIN), None, 0, false, &C),
+            Err(Doubt::Impossible)
+        );
+    }
+
+    #[test]
+    fn a_rate_that_jumps_more_than_a_turn_starts_is_a_jump() {
+        // Starting or ending a 31.5 deg/s turn is a step the robot makes.
+        assert_eq!(
+            check_gyro(rate(31_500), Some(rate(0)), 0, false, &C),
+            Ok(())
+        );
+        assert_eq!(
+            check_gyro(rate(-20_000), Some(rate(31_500)), 0, false, &C),
+            Err(Doubt::Jump)
+        );
+    }
+
+    #[test]
+    fn a_gyro_on_one_value_for_n_ticks_is_stuck() {
+        let mut repeats = Repeats::default();
+        let verdicts: std::vec::Vec<_> = (0..6)
+            .map(|_| {
+                let (before, n) = repeats.push(rate(31_512));
+                check_gyro(rate(31_512), before, n, false, &C)
+            })
+            .collect();
+        assert_eq!(verdicts[..4], [Ok(()); 4]);
+        assert_eq!(verdicts[4..], [Err(Doubt::Stuck); 2]);
+        // A new value starts the count again.
+        assert_eq!(repeats.push(rate(31_490)).1, 0);
+    }
+
+    #[test]
+    fn a_turn_read_while_held_is_doubted() {
+        assert_eq!(check_gyro(rate(1_500), Some(rate(0)), 0, true, &C), Ok(()));
+        assert_eq!(
+            check_gyro(rate(3_000), Some(rate(0)), 0, true, &C),
+            Err(Doubt::MovedWhileHeld)
+        );
+    }
+
+    #[test]
+    fn flow_faster_than_a_drive_or_sideways_is_impossible() {
+        assert_eq!(check_flow(flow(86, -3), 0, false, &C), Ok(()));
+        assert_eq!(
+            check_flow(flow(-401, 0), 0, false, &C),
+            Err(Doubt::Impossible)
+        );
+        assert_eq!(
+            check_flow(flow(10, 101), 0, false, &C),
+            Err(Doubt::Impossible)
+        );
+        assert_eq!(
+            check_flow(flow(i32::MIN, 0), 0, false, &C),
+            Err(Doubt::Impossible)
+        );
+    }
+
+    #[test]
+    fn flow_stuck_or_moving_while_held_is_doubted() {
+        assert_eq!(check_flow(flow(86, 1), 4, false, &C), Err(Doubt::Stuck));
+        assert_eq!(check_flow(flow(86, 1), 3, false, &C), Ok(()));
+        assert_eq!(
+            check_flow(flow(86, 1), 0, true, &C),
+            Err(Doubt::MovedWhileHeld)
+        );
+        assert_eq!(check_flow(flow(2, -1), 0, true, &C), Ok(()));
+    }
+
+    fn scan(ranges: &[Option<u16>]) -> DepthScan {
+        let mut s = DepthScan::default();
+        for (slot, r) in s.ranges_mm.iter_mut().zip(ranges) {
+            *slot = *r;
+        }
+        s
+    }
+
+    #[test]
+    fn a_depth_frame_repeated_bit_for_bit_is_stuck() {
+        let full = scan(&[Some(812); BEAMS]);
+        assert_eq!(check_depth(&full, 0, &C), Ok(()));
+        assert_eq!(check_depth(&full, 1, &C), Err(Doubt::Stuck));
+        // One return may repeat by chance: only a long run is stuck.
+        let sparse = scan(&[Some(812), None]);
+        assert_eq!(check_depth(&sparse, 3, &C), Ok(()));
+        assert_eq!(check_depth(&sparse, 4, &C), Err(Doubt::Stuck));
+        // No return at all writes nothing: never stuck.
+        assert_eq!(check_depth(&DepthScan::default(), 9, &C), Ok(()));
+    }
+
+    #[test]
+    fn a_range_beyond_the_sensor_is_impossible() {
+        assert_eq!(check_depth(&scan(&[Some(4_500)]), 0, &C), Ok(()));
+        assert_eq!(
+            check_depth(&scan(&[None, Some(4_501)]), 0, &C),
+            Err(Doubt::Impossible)
+        );
+    }
+
+    #[test]
+    fn trust_comes_back_after_enough_good_readings_in_a_row() {
+        let mut p = Plausibility::default();
+        let tick = |p: &mut Plausibility, g: Option<i32>| p.judge(g.map(rate), None, None, &C);
+        // Never heard: not doubted, nothing known.
+        let first = tick(&mut p, None);
+        assert_eq!((first.trust, first.gyro), (Trust::default(), Known::Lost));
+        assert_eq!(tick(&mut p, Some(31_500)).gyro, Known::Read(rate(31_500)));
+        // Lost while turning: the last trusted rate stands in, then the robot is held.
+        let lost = tick(&mut p, None);
+        assert_eq!(lost.trust.gyro, Some(Doubt::Missing));
+        assert_eq!(lost.trust.lacking(true, false), Some(Input::Gyro));
+        assert_eq!(lost.gyro, Known::Read(rate(31_500)));
+        assert_eq!(tick(&mut p, None).gyro, Known::Still);
+        // Back, still: two good readings are not yet enough, a third is.
+        for _ in 0..2 {
+            let j = tick(&mut p, Some(10));
+            assert_eq!((j.trust.gyro, j.gyro), (Some(Doubt::Missing), Known::Still));
+        }
+        // A turn while held resets the count.
+        assert_eq!(tick(&mut p, Some(31_500)).gyro, Known::Still);
+        for _ in 0..2 {
+            assert!(tick(&mut p, Some(20)).trust.gyro.is_some());
+        }
+        let back = tick(&mut p, Some(-20));
+        assert_eq!(
+            (back.trust, back.gyro),
+            (Trust::default(), Known::Read(rate(-20)))
+        );
+    }
+
+    #[test]
+    fn a_doubted_flow_holds_drives_not_turns() {
+        let mut p = Plausibility::default();
+        p.judge(Some(rate(0)), Some(flow(86, 0)), None, &C);
+        let garbage = p.judge(Some(rate(0)), Some(flow(9_000, 0)), None, &C);
+        assert_eq!(garbage.trust.flow, Some(Doubt::Impossible));
+        assert_eq!(garbage.flow, Known::Read(flow(86, 0)));
+        assert_eq!(garbage.trust.lacking(true, false), None);
+        assert_eq!(garbage.trust.lacking(false, true), Some(Input::Flow));
+        assert!(!garbage.trust.pose());
+        let held = p.judge(Some(rate(0)), Some(flow(1, 0)), None, &C);
+        assert_eq!(held.flow, Known::Still);
+    }
+
+    #[test]
+    fn trust_packs_into_sixteen_bits_and_back() {
+        let t = Trust {
+            gyro: Some(Doubt::Stuck),
+            flow: None,
+            depth: Some(Doubt::MovedWhileHeld),
+        };
+        assert_eq!(t.packed(), 2 | (5 << 8));
+        assert_eq!(Trust::unpacked(t.packed()), t);
+        assert_eq!(Trust::unpacked(0), Trust::default());
+        for d in Doubt::ALL {
+            assert_eq!(Doubt::from_code(d.code()), Some(d));
+        }
+        assert_eq!(Doubt::from_code(0), None);
+        assert_eq!(Doubt::from_code(6), None);
+    }
+}

@@ -1,0 +1,136 @@
+//! The policy that keeps the map: a doubted input holds the motion that needs it, no scan
+//! is written at a pose the core cannot vouch for, and trust comes back with plausible
+//! readings.
+
+use slam_core::{
+    DepthScan, Doubt, DriveCommand, FlowDelta, GyroRate, Input, Localiser, Pose, SensorFrame, Slam,
+    StepReport, BEAMS,
+};
+
+type Robot = Slam<46, 46>;
+
+const TURN_MDPS: i32 = 31_500;
+
+fn robot() -> Robot {
+    let mut config = world::shipped::seed_robot().config;
+    config.localiser = Localiser::Filter;
+    Robot::new(config, Pose::from_mm_mdeg(1000, 1000, 0)).expect("config")
+}
+
+/// Tick `k`: a gyro reading (jittered as a real one is), still flow, a scan of a wall
+/// whose ranges move a little from tick to tick.
+fn frame(k: i32, gyro_mdps: Option<i32>) -> SensorFrame {
+    let mut f = SensorFrame::empty(100_000);
+    f.gyro = gyro_mdps.map(|r| GyroRate {
+        rate_mdps: r + (k * 7919) % 41 - 20,
+    });
+    f.flow = Some(FlowDelta {
+        forward_counts: k % 3 - 1,
+        right_counts: 0,
+    });
+    f.depth = Some(DepthScan {
+        ranges_mm: [Some(800 + (k % 13) as u16); BEAMS],
+    });
+    f
+}
+
+fn heading_mdeg(r: &StepReport) -> i32 {
+    r.pose.heading.to_millidegrees()
+}
+
+#[test]
+fn a_lost_gyro_holds_the_turn_withholds_scans_and_is_trusted_again() {
+    let mut slam = robot();
+    let mut k = 0;
+    let mut step = |slam: &mut Robot, gyro: Option<i32>| {
+        k += 1;
+        slam.step(&frame(k, gyro))
+    };
+    for _ in 0..10 {
+        let r = step(&mut slam, Some(TURN_MDPS));
+        assert_eq!(r.trust.gyro, None);
+        assert!(r.cells_written > 0);
+    }
+    let before = heading_mdeg(&step(&mut slam, Some(TURN_MDPS)));
+
+    // The first tick without it: the robot was still turning; the last rate stands in,
+    // the turn is held and the scan is not written.
+    let lost = step(&mut slam, None);
+    assert_eq!(lost.trust.gyro, Some(Doubt::Missing));
+    assert_eq!(lost.trust.lacking(true, false), Some(Input::Gyro));
+    assert_eq!(lost.cells_written, 0);
+    let turned = heading_mdeg(&lost) - before;
+    assert!((3_000..3_300).contains(&turned), "{turned} mdeg");
+
+    // Held: the heading stays, nothing is mapped, the withheld scans are counted.
+    for _ in 0..20 {
+        let r = step(&mut slam, None);
+        assert_eq!(heading_mdeg(&r), heading_mdeg(&lost));
+        assert_eq!(r.cells_written, 0);
+    }
+    assert_eq!(slam.counters().scans_withheld, 21);
+    assert_eq!(slam.counters().gyro_doubted, 21);
+
+    // Back, and still (the robot was held): trusted again after three plausible ticks,
+    // mapping at once, with the heading's uncertainty no worse than a few ticks' worth.
+    let mut trusted_after = 0;
+    let mut last = lost;
+    while last.trust.gyro.is_some() {
+        last = step(&mut slam, Some(0));
+        trusted_after += 1;
+    }
+    assert_eq!(trusted_after, 3);
+    assert!(last.cells_written > 0);
+    let hh = last.estimate.expect("filter").covariance.hh;
+    let hh_lost = lost.estimate.expect("filter").covariance.hh;
+    assert!(hh < 2 * hh_lost, "{hh} vs {hh_lost} when lost");
+}
+
+#[test]
+fn a_gyro_stuck_or_impossible_is_doubted_and_the_guard_holds() {
+    let mut slam = robot();
+    let config = slam_core::GuardConfig::SEED;
+    let turn = DriveCommand {
+        speed_mm_s: 0,
+        turn_mdps: TURN_MDPS,
+    };
+    let mut doubts = Vec::new();
+    for k in 0..12 {
+        // From tick 4 the gyro repeats one raw value; from tick 10 it reads garbage.
+        let mut f = frame(k.min(4), Some(TURN_MDPS));
+        if k >= 10 {
+            f.gyro = Some(GyroRate {
+                rate_mdps: 1_500_000,
+            });
+        }
+        let r = slam.step(&f);
+        let decision = slam_core::decide(&config, &r.pose, slam.map(), None, &r.trust, turn);
+        doubts.push((r.trust.gyro, decision.is_go()));
+    }
+    // Ticks 4 to 8 repeat tick 4's reading: the fifth equal reading is stuck.
+    assert_eq!(doubts[7], (None, true));
+    assert_eq!(doubts[8], (Some(Doubt::Stuck), false));
+    assert_eq!(doubts[11], (Some(Doubt::Stuck), false));
+}
+
+#[test]
+fn a_repeated_or_impossible_depth_frame_is_not_mapped() {
+    let mut slam = robot();
+    let still = |k: i32| frame(k, Some(0));
+    assert!(slam.step(&still(1)).cells_written > 0);
+    let repeated = slam.step(&still(1));
+    assert_eq!(repeated.trust.depth, Some(Doubt::Stuck));
+    assert_eq!(repeated.cells_written, 0);
+    let mut garbage = still(2);
+    garbage.depth = Some(DepthScan {
+        ranges_mm: [Some(60_000); BEAMS],
+    });
+    assert_eq!(slam.step(&garbage).cells_written, 0);
+    // Three new frames in a row and the sensor is believed again; the pose never was
+    // in doubt.
+    let reports: Vec<_> = (3..6).map(|k| slam.step(&still(k))).collect();
+    assert!(reports.iter().all(|r| r.trust.pose()));
+    assert_eq!(reports[1].cells_written, 0);
+    assert_eq!(reports[2].trust.depth, None);
+    assert!(reports[2].cells_written > 0);
+}
