@@ -80,8 +80,8 @@ fn first_disagreement(a: Rule, b: Rule) -> Option<String> {
         }
         for (hit, letter) in [(true, 'h'), (false, 'm')] {
             let next = (a.update(x, hit), b.update(y, hit));
-            if !seen.contains_key(&next) {
-                seen.insert(next, format!("{path}{letter}"));
+            if let std::collections::hash_map::Entry::Vacant(slot) = seen.entry(next) {
+                slot.insert(format!("{path}{letter}"));
                 queue.push_back(next);
             }
         }
@@ -105,7 +105,7 @@ fn the_core_cell_follows_its_rule() {
         rng ^= rng << 13;
         rng ^= rng >> 7;
         rng ^= rng << 17;
-        let hit = rng % 3 == 0;
+        let hit = rng.is_multiple_of(3);
         let amount = if hit {
             Evidence::SEED.hit
         } else {
