@@ -129,7 +129,7 @@ pub static REPORTS: Watch<CriticalSectionRawMutex, TickReport, REPORT_READERS> =
 /// A follower of [`REPORTS`].
 pub type ReportReceiver = Receiver<'static, CriticalSectionRawMutex, TickReport, REPORT_READERS>;
 
-/// The SLAM state. It holds the whole grid (two bytes a cell, its size from the world
+/// The SLAM state. It holds the whole grid (a byte a cell, its size from the world
 /// file), so it lives in a static, not in the task's future or on the stack.
 ///
 /// `Slam::new` returns the state by value, so it is built on the stack once at start and

@@ -6,7 +6,7 @@
 //! the tests check is what flies.
 //!
 //! Units: positions in micrometres (pose) or millimetres (map, ranges), headings as
-//! wrapping binary angles ([`Angle`]), log odds in Q8.
+//! wrapping binary angles ([`Angle`]), log odds in Q4 (a byte a cell, 16 is 1.0).
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
 #![deny(unsafe_code)]
 #![warn(missing_docs)]

@@ -8,9 +8,10 @@
 //! The reference therefore keeps, per cell, an *interval* `[lo, hi]` of the log odds any such
 //! choice could give (see `reference::RefGrid`): beams that cross a cell with more than
 //! `EPS_MM` to spare update both ends, beams that only come within `EPS_MM` of it widen the
-//! interval. The core's value must lie in the interval give or take the Q8 tolerance, and
-//! wherever the interval (plus tolerance) sits inside one class, the core's class must be
-//! that class. Cells no beam came near are compared exactly.
+//! interval. The core's value must lie in the interval (the reference adds the core's own
+//! evidence, so there is no rounding to allow for), and wherever the interval sits inside
+//! one class, the core's class must be that class. Cells no beam came near are compared
+//! exactly.
 
 mod reference;
 
@@ -22,12 +23,14 @@ use slam_core::{DepthScan, Evidence, GridGeometry, GridMap, Occupancy, Pose, Sen
 /// Per-axis slack between the core's rounded beam end points and the exact ones, in mm.
 const EPS_MM: f64 = 1.0;
 
-/// Q8 rounding per update: `|218/256 - 0.85| = |-102/256 + 0.4| = 0.4/256`. Clamping is a
-/// contraction, so after `n` updates the core and the reference differ by at most
-/// `n x 0.4/256` (plus `f64` noise).
-fn q8_tolerance(updates: u32) -> f64 {
-    updates as f64 * 0.4 / 256.0 + 1e-9
+/// The core's cell in log-odds units.
+fn log_odds(cell: i8) -> f64 {
+    f64::from(cell) / f64::from(slam_core::grid::LOG_ODDS_ONE)
 }
+
+/// The reference adds the core's evidence in sixteenths, which `f64` holds exactly: what is
+/// left is noise far below a sixteenth.
+const TOLERANCE: f64 = 1e-9;
 
 fn seed_geometry() -> GridGeometry {
     world::shipped::seed_robot().config.geometry
@@ -112,8 +115,8 @@ proptest! {
 
     /// Random scans mapped by `Slam::step` (external pose, so exactly at the given pose) into
     /// `GridMap<46, 46>`, and by the reference: for every cell,
-    /// `core / 256` lies in `[lo - n x 0.4/256, hi + n x 0.4/256]`, its class is the
-    /// reference's wherever that is decided, and it never leaves +-2048.
+    /// the core's log odds lie in `[lo, hi]`, its class is the reference's wherever that is
+    /// decided, and it never leaves the clamp.
     #[test]
     fn scans_match_reference(shots in proptest::collection::vec(shot(), 1..10)) {
         let config = unchecked(world::shipped::seed_robot().config);
@@ -145,10 +148,11 @@ proptest! {
         for r in 0..46 {
             for c in 0..46 {
                 let l = map.log_odds(c, r).unwrap();
-                prop_assert!(l.abs() <= 2048, "cell ({c}, {r}) = {l} beyond the clamp");
+                let clamp = Evidence::SEED.clamp;
+                prop_assert!((-clamp..=clamp).contains(&l), "cell ({c}, {r}) = {l} beyond the clamp");
                 let (lo, hi, n) = grid.cell((c, r));
-                let tol = q8_tolerance(n);
-                let v = l as f64 / 256.0;
+                let tol = TOLERANCE;
+                let v = log_odds(l);
                 prop_assert!(
                     v >= lo - tol && v <= hi + tol,
                     "cell ({}, {}): core {} not in reference [{}, {}] +- {} ({} updates)",
@@ -173,8 +177,7 @@ proptest! {
         }
     }
 
-    /// One cell hit or passed in any order: Q8 against `f64`, within `n x 0.4/256`, and the
-    /// same class unless the reference is within that tolerance of a threshold.
+    /// One cell hit or passed in any order: the same log odds and class as in `f64`.
     #[test]
     fn single_cell_sequence_matches_reference(hits in proptest::collection::vec(any::<bool>(), 0..300)) {
         let mut g: GridMap<1, 1> = GridMap::new(seed_geometry(), Evidence::SEED);
@@ -183,60 +186,61 @@ proptest! {
             g.add(0, 0, if hit { Evidence::SEED.hit } else { Evidence::SEED.miss });
             l = reference::update(l, if hit { reference::HIT } else { reference::MISS });
             let core = g.log_odds(0, 0).unwrap();
-            let tol = q8_tolerance(n as u32 + 1);
-            prop_assert!((core as f64 / 256.0 - l).abs() <= tol);
-            prop_assert!(core.abs() <= 2048);
-            if let Some(class) = decided_class(l - tol, l + tol) {
-                prop_assert_eq!(core_class(g.occupancy(0, 0)), class);
-            }
+            prop_assert!((log_odds(core) - l).abs() <= TOLERANCE, "after {} updates", n + 1);
+            prop_assert!((-Evidence::SEED.clamp..=Evidence::SEED.clamp).contains(&core));
+            prop_assert_eq!(core_class(g.occupancy(0, 0)), reference::classify(l));
         }
     }
 }
 
-/// 10,000 hits on one cell (by `add` and by `insert_beam`) stay at +2048 (+8), 10,000
-/// misses at -2048 (-8): never beyond the clamp, never wrapped. Evidence at the very limits
-/// of `i16` saturates too.
+/// 10,000 hits on one cell (by `add` and by `insert_beam`) stay at the clamp, 10,000
+/// misses at minus the clamp: never beyond it, never wrapped. Evidence at the very limits
+/// of `i8` saturates too.
 #[test]
 fn hammered_cell_saturates_without_wrapping() {
     let geo = seed_geometry();
-    let mut g: GridMap<46, 46> = GridMap::new(geo, Evidence::SEED);
+    let seed = Evidence::SEED;
+    let mut g: GridMap<46, 46> = GridMap::new(geo, seed);
     let (c, r) = geo.cell_of(1000, 1000);
     for i in 0..10_000 {
-        assert!(g.add(c, r, Evidence::SEED.hit));
+        assert!(g.add(c, r, seed.hit));
         let l = g.log_odds(c, r).unwrap();
-        assert_eq!(l, (218 * (i + 1)).min(2048) as i16);
+        assert_eq!(
+            i32::from(l),
+            (i32::from(seed.hit) * (i + 1)).min(seed.clamp.into())
+        );
     }
     for _ in 0..10_000 {
         // A 10 mm beam: its own cell is the hit cell and is never also passed.
         g.insert_beam((1010, 1010), (1010, 1010), (1010, 1020), true);
-        assert_eq!(g.log_odds(c, r), Some(2048));
+        assert_eq!(g.log_odds(c, r), Some(seed.clamp));
         assert_eq!(g.occupancy(c, r), Occupancy::Occupied);
     }
     for _ in 0..10_000 {
         g.insert_beam((1010, 1010), (1010, 1030), (1010, 1040), false);
         let l = g.log_odds(c, r).unwrap();
-        assert!((-2048..=2048).contains(&l));
+        assert!((-seed.clamp..=seed.clamp).contains(&l));
     }
-    assert_eq!(g.log_odds(c, r), Some(-2048));
+    assert_eq!(g.log_odds(c, r), Some(-seed.clamp));
     assert_eq!(g.occupancy(c, r), Occupancy::Free);
 
     let extreme = Evidence {
-        hit: i16::MAX,
-        miss: -i16::MAX,
-        clamp: i16::MAX,
-        free_below: 256,
-        occupied_above: 256,
+        hit: i8::MAX,
+        miss: -i8::MAX,
+        clamp: i8::MAX,
+        free_below: 16,
+        occupied_above: 16,
     };
     let mut g: GridMap<2, 2> = GridMap::new(geo, extreme);
     for _ in 0..10_000 {
-        g.add(1, 1, i16::MAX);
-        assert_eq!(g.log_odds(1, 1), Some(i16::MAX));
+        g.add(1, 1, i8::MAX);
+        assert_eq!(g.log_odds(1, 1), Some(i8::MAX));
     }
     for _ in 0..10_000 {
-        g.add(1, 1, i16::MIN);
-        assert!(g.log_odds(1, 1).unwrap() >= -i16::MAX);
+        g.add(1, 1, i8::MIN);
+        assert!(g.log_odds(1, 1).unwrap() >= -i8::MAX);
     }
-    assert_eq!(g.log_odds(1, 1), Some(-i16::MAX));
+    assert_eq!(g.log_odds(1, 1), Some(-i8::MAX));
 }
 
 // ---------------------------------------------------------------------------------------

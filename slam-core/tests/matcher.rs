@@ -338,7 +338,7 @@ fn a_mirrored_world_gives_a_mirrored_match() {
         for column in 0..60 {
             let l = map.log_odds(column, row).unwrap_or(0);
             for _ in 0..20 {
-                mirrored.add(59 - column, row, l.signum() * 218);
+                mirrored.add(59 - column, row, l.signum() * Evidence::SEED.hit);
             }
         }
     }

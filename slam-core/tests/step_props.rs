@@ -117,9 +117,10 @@ proptest! {
             if let Some(p) = f.external_pose {
                 prop_assert_eq!(report.pose, p);
             }
+            let clamp = slam.map().evidence().clamp;
             for row in slam.map().rows() {
                 for &l in row {
-                    prop_assert!((-2048..=2048).contains(&l));
+                    prop_assert!((-clamp..=clamp).contains(&l));
                 }
             }
         }

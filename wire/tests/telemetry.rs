@@ -609,9 +609,9 @@ fn overlong_frame_is_dropped_and_the_next_decodes() {
 fn seed_map() -> GridMap<46, 46> {
     let mut map = GridMap::new(world::shipped::seed_robot().config.geometry, Evidence::SEED);
     for i in 0..46 {
-        map.add(i, i, 300);
-        map.add(45 - i, i, -300);
-        map.add(i, 0, 2000);
+        map.add(i, i, 19);
+        map.add(45 - i, i, -19);
+        map.add(i, 0, 125);
     }
     map
 }

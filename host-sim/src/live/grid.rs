@@ -15,7 +15,7 @@ pub const CELL_BYTES: usize = 4;
 ///
 /// A cell byte is the cell's log odds in sixteenths (see `wire::telemetry::CellScale`),
 /// so the probability is the logistic of a sixteenth of it: 0 (never seen) is 0.5, and
-/// the robot's thresholds for free and occupied (16 by default) are about 0.27 and 0.73.
+/// the robot's thresholds for free and occupied (17 by default) are about 0.26 and 0.74.
 pub fn probability(cell: i8) -> f32 {
     let log_odds = f64::from(cell) / 16.0;
     (1.0 / (1.0 + (-log_odds).exp())) as f32

@@ -2,16 +2,18 @@
 
 use super::divider::CellDivider;
 
-/// Log odds in Q8 fixed point: 256 is a log-odds of 1.0.
-pub type LogOdds = i16;
+/// Log odds in Q4 fixed point, one byte a cell: 16 is a log-odds of 1.0.
+///
+/// One byte halves every world's grid, which is what lets a 10 m room fit the robot's RAM.
+pub type LogOdds = i8;
 
 /// One log-odds unit (1.0) in [`LogOdds`].
-pub const LOG_ODDS_ONE: LogOdds = 256;
+pub const LOG_ODDS_ONE: LogOdds = 16;
 
 /// How much one beam says about a cell, and when a cell counts as known.
 ///
 /// The defaults are the seed's: +0.85 where a beam stops, -0.4 where it passes,
-/// clamped to +-8, free below -1 and occupied above +1.
+/// clamped to about +-8, free below about -1 and occupied above about +1.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Evidence {
@@ -19,7 +21,7 @@ pub struct Evidence {
     pub hit: LogOdds,
     /// Added to each cell a beam passes through (negative).
     pub miss: LogOdds,
-    /// Cells saturate at `+-clamp`.
+    /// Cells saturate at `+-clamp` (positive, so its negation is a cell too).
     pub clamp: LogOdds,
     /// A cell below `-free_below` is free; above `occupied_above` it is occupied.
     pub free_below: LogOdds,
@@ -28,13 +30,20 @@ pub struct Evidence {
 }
 
 impl Evidence {
-    /// The seed's evidence in Q8: +0.85 -> 218, -0.4 -> -102, +-8 -> +-2048, +-1 -> +-256.
+    /// The seed's evidence in Q4.
+    ///
+    /// What a cell believes depends only on how hit, miss, clamp and thresholds compare,
+    /// so these integers are chosen for their ratios to each other (+15 : -7 against the
+    /// seed's 0.85 : -0.4, thresholds at 17) rather than each rounded alone to sixteenths
+    /// (+14, -6, 16), which would turn a cell hit once free only at the sixth miss, not the
+    /// fifth. The clamp goes as far as a byte does. `tests/evidence_beliefs.rs` holds them
+    /// to the seed's beliefs.
     pub const SEED: Evidence = Evidence {
-        hit: 218,
-        miss: -102,
-        clamp: 8 * LOG_ODDS_ONE,
-        free_below: LOG_ODDS_ONE,
-        occupied_above: LOG_ODDS_ONE,
+        hit: 15,
+        miss: -7,
+        clamp: 127,
+        free_below: 17,
+        occupied_above: 17,
     };
 }
 
@@ -100,8 +109,8 @@ pub struct OccupancyCounts {
 
 /// A `W` x `H` log-odds grid; row 0 is the lowest y, column 0 the lowest x.
 ///
-/// The seed's mat is `GridMap<46, 46>` (5 cm cells, 15 cm margin, 4.2 KB); a 10 m room at
-/// 5 cm is `GridMap<206, 206>` (83 KB). Sized by const generics so there is no allocator.
+/// A byte a cell: the seed's mat is `GridMap<46, 46>` (5 cm cells, 15 cm margin); a 10 m
+/// room at 5 cm is `GridMap<206, 206>`. Sized by const generics so there is no allocator.
 #[derive(Clone, PartialEq, Eq, Debug)]
 pub struct GridMap<const W: usize, const H: usize> {
     pub(super) geometry: GridGeometry,
@@ -189,7 +198,7 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
     #[inline]
     pub fn add(&mut self, column: i32, row: i32, amount: LogOdds) -> bool {
         // One unsigned comparison per axis rejects negatives too; the sum in 32 bits cannot
-        // overflow, and the clamp (at most `i16::MAX`) brings it back into a cell.
+        // overflow, and the clamp (at most `i8::MAX`) brings it back into a cell.
         let (Ok(column), Ok(row)) = (usize::try_from(column), usize::try_from(row)) else {
             return false;
         };
@@ -216,8 +225,8 @@ mod tests {
             g.add(1, 1, Evidence::SEED.hit);
             g.add(2, 2, Evidence::SEED.miss);
         }
-        assert_eq!(g.log_odds(1, 1), Some(2048));
-        assert_eq!(g.log_odds(2, 2), Some(-2048));
+        assert_eq!(g.log_odds(1, 1), Some(Evidence::SEED.clamp));
+        assert_eq!(g.log_odds(2, 2), Some(-Evidence::SEED.clamp));
         assert_eq!(g.occupancy(1, 1), Occupancy::Occupied);
         assert_eq!(g.occupancy(2, 2), Occupancy::Free);
         assert_eq!(g.occupancy(0, 0), Occupancy::Unknown);

@@ -473,8 +473,8 @@ mod tests {
         // From (700, 500) straight up to the far wall at 2000 mm.
         let n = g.insert_beam((700, 500), (700, 1950), (700, 2000), true);
         let (c, r) = GEO.cell_of(700, 2000);
-        assert_eq!(g.log_odds(c, r), Some(218));
-        assert_eq!(g.log_odds(c, r - 1), Some(-102));
+        assert_eq!(g.log_odds(c, r), Some(Evidence::SEED.hit));
+        assert_eq!(g.log_odds(c, r - 1), Some(Evidence::SEED.miss));
         assert_eq!(n, 31);
         // A beam leaving the grid entirely is clipped, not a panic.
         let n = g.insert_beam((700, 500), (700, 90_000), (700, 100_000), true);

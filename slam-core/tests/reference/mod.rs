@@ -7,6 +7,9 @@
 
 use std::f64::consts::PI;
 
+use slam_core::grid::LOG_ODDS_ONE;
+use slam_core::Evidence;
+
 pub mod filter;
 
 /// A fixed pseudo-random sequence (Knuth's MMIX linear congruential generator) for sweeps
@@ -66,17 +69,25 @@ pub fn heading_of(x: f64, y: f64) -> f64 {
 }
 
 // ---------------------------------------------------------------------------------------
-// Log-odds occupancy, as the seed states it
+// Log-odds occupancy, with the core's evidence
 // ---------------------------------------------------------------------------------------
 
+/// The core's cell units in a log-odds unit.
+const ONE: f64 = LOG_ODDS_ONE as f64;
 /// Added where a beam stops.
-pub const HIT: f64 = 0.85;
+///
+/// The seed states +0.85, -0.4, +-8 and +-1; the core's one-byte cell keeps the seed's
+/// beliefs with its own integers (`evidence_beliefs.rs` holds that), so the reference takes
+/// those, exactly: it checks which cells a beam updates and the clamp, not a rounding.
+pub const HIT: f64 = Evidence::SEED.hit as f64 / ONE;
 /// Added where a beam passes.
-pub const MISS: f64 = -0.4;
-/// Cells saturate at +-8.
-pub const CLAMP: f64 = 8.0;
-/// Free below -1, occupied above +1.
-pub const THRESHOLD: f64 = 1.0;
+pub const MISS: f64 = Evidence::SEED.miss as f64 / ONE;
+/// Cells saturate at `+-CLAMP`.
+pub const CLAMP: f64 = Evidence::SEED.clamp as f64 / ONE;
+/// Free below `-FREE_BELOW`.
+pub const FREE_BELOW: f64 = Evidence::SEED.free_below as f64 / ONE;
+/// Occupied above `OCCUPIED_ABOVE`.
+pub const OCCUPIED_ABOVE: f64 = Evidence::SEED.occupied_above as f64 / ONE;
 
 /// What a cell is believed to be.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -86,18 +97,18 @@ pub enum Class {
     Unknown,
 }
 
-/// The seed's classification of a log odds.
+/// The classification of a log odds.
 pub fn classify(l: f64) -> Class {
-    if l < -THRESHOLD {
+    if l < -FREE_BELOW {
         Class::Free
-    } else if l > THRESHOLD {
+    } else if l > OCCUPIED_ABOVE {
         Class::Occupied
     } else {
         Class::Unknown
     }
 }
 
-/// The seed's update of one cell.
+/// The update of one cell.
 pub fn update(l: f64, amount: f64) -> f64 {
     (l + amount).clamp(-CLAMP, CLAMP)
 }
@@ -218,8 +229,7 @@ pub fn crossed_cells(g: &Geometry, a: (f64, f64), b: (f64, f64)) -> Vec<(i32, i3
 /// passes within `eps` millimetres of a cell's edge may or may not update it in a fixed-point
 /// implementation whose beam end points are rounded by up to `eps`: such a cell gets an
 /// *optional* update (the interval widens to cover both outcomes). Updates a beam makes for
-/// certain move both ends. `updates` counts every beam that could have changed the cell,
-/// for the Q8 rounding tolerance.
+/// certain move both ends. `updates` counts every beam that could have changed the cell.
 #[derive(Clone, Debug)]
 pub struct RefGrid {
     pub geometry: Geometry,

@@ -4,10 +4,9 @@ use slam_core::{Evidence, LogOdds, Occupancy};
 
 /// How a map cell is squeezed into one byte without changing what it means.
 ///
-/// A cell is sent as its Q8 log odds `>> 4` (1/16 of a log-odds unit per step, so the
-/// seed's clamp of +-8.0 just fits in an `i8` after saturating), nudged by one step where
-/// the shift alone would move it across a belief threshold: the viewer's map then agrees
-/// with the robot's belief for belief.
+/// A cell is sent as it is held, its log odds in sixteenths (the core's one-byte cell),
+/// nudged only where thresholds past a byte's reach would hide a belief: the viewer's map
+/// agrees with the robot's belief for belief.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct CellScale {
@@ -18,20 +17,19 @@ pub struct CellScale {
 }
 
 impl CellScale {
-    /// The thresholds for a grid using `evidence`, shifted to cell units and kept where
-    /// both beliefs stay reachable in an `i8`.
+    /// The thresholds for a grid using `evidence`, kept where both beliefs stay reachable
+    /// in an `i8`.
     pub fn new(evidence: &Evidence) -> CellScale {
-        let shift = |t: LogOdds| (t >> 4).clamp(0, 126) as i8;
         CellScale {
-            free_below: shift(evidence.free_below),
-            occupied_above: shift(evidence.occupied_above),
+            free_below: evidence.free_below.clamp(0, 127),
+            occupied_above: evidence.occupied_above.clamp(0, 126),
         }
     }
 
     /// The byte sent for a cell of `log_odds` that the robot believes is `belief`.
     pub fn encode(&self, log_odds: LogOdds, belief: Occupancy) -> i8 {
         // In i16 so that no threshold, however set, can overflow.
-        let shifted = (log_odds >> 4).clamp(i8::MIN as i16, i8::MAX as i16);
+        let shifted = i16::from(log_odds);
         let free = (self.free_below as i16).clamp(0, 127);
         let occupied = (self.occupied_above as i16).clamp(0, 126);
         let cell = match belief {
@@ -61,8 +59,11 @@ mod tests {
     #[test]
     fn cells_keep_their_belief() {
         let scale = CellScale::new(&Evidence::SEED);
-        assert_eq!((scale.free_below, scale.occupied_above), (16, 16));
         let e = Evidence::SEED;
+        assert_eq!(
+            (scale.free_below, scale.occupied_above),
+            (e.free_below, e.occupied_above)
+        );
         for l in -e.clamp..=e.clamp {
             let belief = if l < -e.free_below {
                 Occupancy::Free
@@ -73,25 +74,26 @@ mod tests {
             };
             let q = scale.encode(l, belief);
             assert_eq!(scale.belief(q), belief, "log odds {l}");
-            assert!((q as i16 - (l >> 4).clamp(-128, 127)).abs() <= 1, "{l}");
+            // A cell is sent as it is.
+            assert_eq!(q, l);
         }
         // Thresholds past the byte's reach still leave room for both beliefs.
         let odd = Evidence {
-            free_below: 7000,
-            occupied_above: 5,
+            free_below: 127,
+            occupied_above: 127,
             ..Evidence::SEED
         };
         let s = CellScale::new(&odd);
         assert_eq!(
-            s.belief(s.encode(i16::MIN, Occupancy::Free)),
+            s.belief(s.encode(i8::MIN, Occupancy::Free)),
             Occupancy::Free
         );
         assert_eq!(
-            s.belief(s.encode(6, Occupancy::Occupied)),
+            s.belief(s.encode(127, Occupancy::Occupied)),
             Occupancy::Occupied
         );
         assert_eq!(
-            s.belief(s.encode(4, Occupancy::Unknown)),
+            s.belief(s.encode(127, Occupancy::Unknown)),
             Occupancy::Unknown
         );
     }

@@ -48,8 +48,9 @@
 //!
 //! A `MapRows` chunk's cells run in row-major order from `(first_column, first_row)`,
 //! carrying on at column 0 of the next row; row 0 is the grid's lowest y. A cell is its
-//! Q8 log odds divided by 16 (`>> 4`), saturated to `[-128, 127]`, and then moved by at
-//! most one step so that its belief survives: it is *free* when below `-free_below`,
+//! log odds in sixteenths, the byte the robot's grid holds, moved by at most one step
+//! only where a threshold lies past a byte's reach, so that its belief survives: it is
+//! *free* when below `-free_below`,
 //! *occupied* when above `occupied_above` (the `Hello`'s thresholds, in the same units),
 //! and unknown otherwise, exactly as the robot's grid classifies it (see [`CellScale`]).
 //!
