@@ -40,6 +40,7 @@ fn hello() -> Message {
         occupied_above: 16,
         firmware: FW,
         localiser: Localiser::Filter,
+        boot: Boot::default(),
     })
 }
 
@@ -218,7 +219,7 @@ fn health_frame_fixture() {
         gyro_start_failures: 2,
         ..SensorHealth::default()
     });
-    let stuffed = sealed(&[0xB5, 3, 0, 1, 0xAC, 0x02, 0, 0, 0, 0, 0, 0, 0, 0, 2]);
+    let stuffed = sealed(&[0xB6, 3, 0, 1, 0xAC, 0x02, 0, 0, 0, 0, 0, 0, 0, 0, 2]);
     assert_eq!(frame(&h), stuffed);
     // No zero before the delimiter.
     assert!(!stuffed[..stuffed.len() - 1].contains(&0));
@@ -251,15 +252,59 @@ fn filter_frame_fixture() {
         },
     });
     let raw = [
-        0xB5, 4, 2, 0xD8, 0x04, 1, 0, 0, 0, 0x80, 0x80, 0x08, 3, 0, 0x80, 0x01, 5, 0, 0, 1, 0, 2,
+        0xB6, 4, 2, 0xD8, 0x04, 1, 0, 0, 0, 0x80, 0x80, 0x08, 3, 0, 0x80, 0x01, 5, 0, 0, 1, 0, 2,
     ];
     assert_eq!(frame(&m), sealed(&raw));
     assert_eq!(decode_all(&sealed(&raw)).0, std::vec![Ok(m)]);
 }
 
+/// A `Hello`'s postcard body.
+fn hello_body(m: &Message) -> std::vec::Vec<u8> {
+    postcard::to_slice(m, &mut [0u8; 64])
+        .map(|b| b.to_vec())
+        .unwrap_or_default()
+}
+
+#[test]
+fn hello_carries_the_boot() {
+    // The last three bytes: the reset cause (0 power-on, 1 watchdog, 2 other), resumed or
+    // not, and the resumes as a varint.
+    for (cause, byte) in [
+        (ResetCause::PowerOn, 0),
+        (ResetCause::Watchdog, 1),
+        (ResetCause::Other, 2),
+    ] {
+        let mut m = hello();
+        if let Message::Hello(h) = &mut m {
+            h.boot = Boot {
+                cause,
+                resumed: cause == ResetCause::Watchdog,
+                resumes: 3,
+            };
+        }
+        let body = hello_body(&m);
+        let resumed = u8::from(cause == ResetCause::Watchdog);
+        assert_eq!(body.get(body.len() - 3..), Some(&[byte, resumed, 3][..]));
+        assert_eq!(decode_all(&frame(&m)).0, std::vec![Ok(m)]);
+    }
+    // No fourth cause, and a flag is 0 or 1.
+    for (from_end, bad) in [(3, 3), (2, 2)] {
+        let mut body = hello_body(&hello());
+        let at = body.len() - from_end;
+        body[at] = bad;
+        let mut raw = std::vec![0xB6];
+        raw.extend(body);
+        assert_eq!(
+            decode_all(&sealed(&raw)).0,
+            std::vec![Err(FrameError::Body)],
+            "byte {bad} {from_end} from the end"
+        );
+    }
+}
+
 #[test]
 fn hello_carries_the_localiser() {
-    // The last byte before the CRC: 0 dead reckoning, 1 two-tag fix, 2 filter.
+    // The byte before the boot's three: 0 dead reckoning, 1 two-tag fix, 2 filter.
     for (localiser, byte) in [
         (Localiser::DeadReckoning, 0),
         (Localiser::TwoTagFix, 1),
@@ -269,20 +314,15 @@ fn hello_carries_the_localiser() {
         if let Message::Hello(h) = &mut m {
             h.localiser = localiser;
         }
-        let body = postcard::to_slice(&m, &mut [0u8; 64])
-            .map(|b| b.to_vec())
-            .unwrap_or_default();
-        assert_eq!(body.last(), Some(&byte), "{localiser:?}");
+        let body = hello_body(&m);
+        assert_eq!(body.get(body.len() - 4), Some(&byte), "{localiser:?}");
         assert_eq!(decode_all(&frame(&m)).0, std::vec![Ok(m)]);
     }
     // No fourth localiser.
-    let mut body = postcard::to_slice(&hello(), &mut [0u8; 64])
-        .map(|b| b.to_vec())
-        .unwrap_or_default();
-    if let Some(last) = body.last_mut() {
-        *last = 3;
-    }
-    let mut raw = std::vec![0xB5];
+    let mut body = hello_body(&hello());
+    let at = body.len() - 4;
+    body[at] = 3;
+    let mut raw = std::vec![0xB6];
     raw.extend(body);
     assert_eq!(
         decode_all(&sealed(&raw)).0,
@@ -298,7 +338,7 @@ fn inputs_frame_fixture() {
         time_ms: 2,
         frame: SensorFrame::empty(3),
     });
-    let raw = [0xB5, 5, 1, 2, 3, 0, 0, 0, 0, 0, 0, 0];
+    let raw = [0xB6, 5, 1, 2, 3, 0, 0, 0, 0, 0, 0, 0];
     assert_eq!(frame(&m), sealed(&raw));
     assert_eq!(decode_all(&sealed(&raw)).0, std::vec![Ok(m)]);
     // One tag (id 11, cx -1 zigzagged to 1, 300 mm) and a gyro reading of 5 mdps.
@@ -317,13 +357,13 @@ fn inputs_frame_fixture() {
             ..SensorFrame::empty(3)
         },
     });
-    let raw = [0xB5, 5, 1, 2, 3, 0, 1, 10, 0, 0, 1, 11, 1, 0xAC, 0x02, 0, 0];
+    let raw = [0xB6, 5, 1, 2, 3, 0, 1, 10, 0, 0, 1, 11, 1, 0xAC, 0x02, 0, 0];
     assert_eq!(frame(&m), sealed(&raw));
 }
 
 #[test]
 fn inputs_with_more_tags_than_the_core_holds_are_refused() {
-    let mut raw = std::vec![0xB5, 5, 1, 2, 3, 0, 0, 0, 0];
+    let mut raw = std::vec![0xB6, 5, 1, 2, 3, 0, 0, 0, 0];
     raw.push(u8::try_from(MAX_TAGS + 1).unwrap_or(u8::MAX));
     for _ in 0..=MAX_TAGS {
         raw.extend([1, 0, 0]);
@@ -334,7 +374,7 @@ fn inputs_with_more_tags_than_the_core_holds_are_refused() {
         std::vec![Err(FrameError::Body)]
     );
     // The same with the most it holds decodes.
-    let mut raw = std::vec![0xB5, 5, 1, 2, 3, 0, 0, 0, 0];
+    let mut raw = std::vec![0xB6, 5, 1, 2, 3, 0, 0, 0, 0];
     raw.push(u8::try_from(MAX_TAGS).unwrap_or(u8::MAX));
     for _ in 0..MAX_TAGS {
         raw.extend([1, 0, 0]);
@@ -456,6 +496,11 @@ fn worst_case_messages_fit() {
         h.cell_mm = i32::MIN;
         h.origin_x_mm = i32::MIN;
         h.origin_y_mm = i32::MIN;
+        h.boot = Boot {
+            cause: ResetCause::Other,
+            resumed: true,
+            resumes: u16::MAX,
+        };
     }
     for (m, limit) in [
         (big, 142),
@@ -463,7 +508,7 @@ fn worst_case_messages_fit() {
         (worst_tick, 96),
         (worst_filter, 116),
         (Message::Health(all_max), 66),
-        (worst_hello, 34),
+        (worst_hello, 39),
     ] {
         let bytes = frame(&m);
         assert!(bytes.len() <= limit, "{} > {limit}", bytes.len());
@@ -490,7 +535,7 @@ fn garbage_between_frames_resynchronises() {
     bytes.extend([1, 2, 3, 4, 5, 0]);
     bytes.extend(frame(&tick()));
     bytes.extend([0, 0, 0]); // empty frames: ignored
-    bytes.extend([0xB5, 0x07, 0]); // stuffing that runs past the end
+    bytes.extend([0xB6, 0x07, 0]); // stuffing that runs past the end
     bytes.extend(frame(&health()));
     let (out, stats) = decode_all(&bytes);
     let good: Vec<Message> = out.iter().filter_map(|r| r.clone().ok()).collect();
@@ -548,12 +593,13 @@ fn every_flipped_bit_is_caught() {
 
 #[test]
 fn wrong_version_and_bad_body_are_told_apart() {
-    // Layouts 1 to 4's health frames: older firmwares'.
+    // Layouts 1 to 5's health frames: older firmwares'.
     for old in [
         std::vec![0xB1, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0],
         std::vec![0xB2, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0],
         std::vec![0xB3, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0],
         std::vec![0xB4, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0],
+        std::vec![0xB5, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0],
     ] {
         assert_eq!(
             decode_all(&sealed(&old)).0,
@@ -562,13 +608,13 @@ fn wrong_version_and_bad_body_are_told_apart() {
     }
 
     for raw in [
-        std::vec![0xB5, 9],                                        // no such variant
-        std::vec![0xB5, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0],             // health cut short
-        std::vec![0xB5, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 7], // a byte left over
-        std::vec![0xB5, 2, 0, 0, 0x81, 0x01],                      // 129 cells announced
-        std::vec![0xB5, 4, 1, 0, 0, 0, 0, 0],                      // filter cut short
-        std::vec![0xB5, 5, 1, 2, 3, 0, 0, 0],                      // inputs cut short
-        std::vec![0xB5, 5, 1, 2, 3, 2],                            // flow option byte 2
+        std::vec![0xB6, 9],                                        // no such variant
+        std::vec![0xB6, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0],             // health cut short
+        std::vec![0xB6, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 7], // a byte left over
+        std::vec![0xB6, 2, 0, 0, 0x81, 0x01],                      // 129 cells announced
+        std::vec![0xB6, 4, 1, 0, 0, 0, 0, 0],                      // filter cut short
+        std::vec![0xB6, 5, 1, 2, 3, 0, 0, 0],                      // inputs cut short
+        std::vec![0xB6, 5, 1, 2, 3, 2],                            // flow option byte 2
     ] {
         assert_eq!(
             decode_all(&sealed(&raw)).0,
@@ -747,6 +793,47 @@ fn a_filter_follows_each_tick_with_an_estimate() {
         unreachable!()
     };
     assert_eq!(h.localiser, Localiser::Filter);
+    assert_eq!(h.boot, Boot::default());
+}
+
+#[test]
+fn every_hello_carries_the_boot_it_was_given() {
+    let boot = Boot {
+        cause: ResetCause::Watchdog,
+        resumed: true,
+        resumes: 2,
+    };
+    let schedule = Schedule {
+        hello_every_ticks: 2,
+        ..Schedule::DEFAULT
+    };
+    let mut s = Streamer::new(schedule, FW, Localiser::Filter).with_boot(boot);
+    let map = seed_map();
+    let report = StepReport {
+        pose: Pose::default(),
+        fix: FixOutcome::NotAttempted,
+        stale: Staleness::default(),
+        cells_written: 0,
+        counters: Counters::default(),
+        estimate: None,
+    };
+    let mut hellos = std::vec::Vec::new();
+    for _ in 0..4 {
+        s.tick(
+            0,
+            &SensorFrame::empty(100_000),
+            &report,
+            TagCounters::default(),
+            &map,
+            &SensorHealth::default(),
+            |m| {
+                if let Message::Hello(h) = m {
+                    hellos.push(h.boot);
+                }
+            },
+        );
+    }
+    assert_eq!(hellos, std::vec![boot, boot]);
 }
 
 #[test]
