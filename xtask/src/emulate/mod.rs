@@ -51,7 +51,9 @@ pub struct EmulateArgs {
     #[arg(long, value_name = "MODE")]
     pub pose: Option<String>,
     /// depth-nack, camera-garbage, flow-no-surface or gyro-nack from S seconds on
-    /// (`NAME@T+S`, or `NAME@T+S/D` for D seconds); repeatable.
+    /// (`NAME@T+S`, or `NAME@T+S/D` for D seconds); core0-hang (core 0 stops between two
+    /// ticks) or step-hang (inside a SLAM step) once at S seconds, until the watchdog
+    /// resets the chip; repeatable.
     #[arg(long = "fault", value_name = "NAME@T+S")]
     pub faults: Vec<String>,
     /// Run without host-sim: the robot stands still on a good surface.
