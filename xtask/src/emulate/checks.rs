@@ -585,8 +585,7 @@ fn reset_checks(f: &serde_json::Value, log: &str) -> Vec<(String, bool)> {
                 "map kept: {} of {} cells equal as the first step after the reset began ({} known)",
                 r["map_cells_equal"], r["map_cells"], r["map_cells_known"]
             ),
-            num(&r["map_cells_equal"]) == num(&r["map_cells"])
-                && num(&r["map_cells_known"]) > 0.0,
+            num(&r["map_cells_equal"]) == num(&r["map_cells"]) && num(&r["map_cells_known"]) > 0.0,
         ),
         (
             format!(
@@ -679,7 +678,9 @@ INFO motion: route done, motors coasting\n";
             .collect();
         assert_eq!(failed.len(), 5, "{failed:?}");
         assert!(failed.iter().any(|w| w.starts_with("map kept")));
-        assert!(failed.iter().any(|w| w.starts_with("pose, filter and counters kept")));
+        assert!(failed
+            .iter()
+            .any(|w| w.starts_with("pose, filter and counters kept")));
         assert!(failed.iter().any(|w| w.starts_with("the route resumed")));
     }
 
