@@ -119,7 +119,7 @@ struct Block {
 /// The first word the checksum covers, and how many.
 const SUMMED_FROM: usize = offset_of!(Block, resumes);
 const SUMMED_WORDS: usize = (size_of::<Block>() - SUMMED_FROM) / 4;
-const _: () = assert!(SUMMED_FROM % 4 == 0 && size_of::<Block>() % 4 == 0);
+const _: () = assert!(SUMMED_FROM.is_multiple_of(4) && size_of::<Block>().is_multiple_of(4));
 
 /// The block, in the section start-up leaves alone.
 struct Retained(UnsafeCell<MaybeUninit<Block>>);
