@@ -45,7 +45,13 @@ export function bootChip(image, after = null) {
     watchdog.reason = old.reason;
   }
   let fired = false;
-  watchdog.onWatchdogTrigger = () => { fired = true; };
+  // The chip resets here: the watchdog stops with it. (Left running, rp2040js's periodic
+  // alarm finds its counter at 0 and fires again at the same instant, for ever.)
+  watchdog.onWatchdogTrigger = () => {
+    fired = true;
+    watchdog.alarm.enable = false;
+    watchdog.timer.enable = false;
+  };
   // rp2040js leaves VREG_AND_CHIP_RESET unimplemented (reads 0): CHIP_RESET.HAD_POR says
   // the last chip-level reset was the power-on, which a watchdog reset does not change.
   const chipReset = rp.peripherals[CHIP_RESET_BLOCK];
