@@ -12,7 +12,7 @@ export const NOMINAL_CLK_HZ = 125e6;
 const VECTOR_TABLE = 0x10000100;
 
 /// Watchdog register block, and VREG_AND_CHIP_RESET's CHIP_RESET.
-const WATCHDOG_BLOCK = 0x40058;
+const WATCHDOG_BLOCK = 0x40058, TIMER_BLOCK = 0x40054;
 const CHIP_RESET_BLOCK = 0x40064, CHIP_RESET = 0x08, HAD_POR = 1 << 8;
 
 /// A chip running `image` (flash contents from 0x10000000). Returns `{ clock, rp, core,
@@ -43,6 +43,14 @@ export function bootChip(image, after = null) {
     rp.sram.set(after.rp.sram);
     watchdog.scratchData.set(old.scratchData);
     watchdog.reason = old.reason;
+    // The TIMER restarts from 0 with the chip; rp2040js's reads the shared clock as it is.
+    const timer = rp.peripherals[TIMER_BLOCK];
+    const bootNs = clock.nanos;
+    timer.clock = {
+      get nanos() { return clock.nanos - bootNs; },
+      get micros() { return (clock.nanos - bootNs) / 1000; },
+      createAlarm: (callback) => clock.createAlarm(callback),
+    };
   }
   let fired = false;
   // The chip resets here: the watchdog stops with it. (Left running, rp2040js's periodic

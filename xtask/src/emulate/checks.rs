@@ -574,7 +574,7 @@ fn reset_checks(f: &serde_json::Value, log: &str) -> Vec<(String, bool)> {
                 resets.len(),
                 r["hung_at_s"]
             ),
-            resets.len() == 1 && r["reason"] == "timer" && (0.4..=0.6).contains(&blind_s),
+            resets.len() == 1 && r["reason"] == "timer" && (0.35..=0.55).contains(&blind_s),
         ),
         (
             "the retained state was whole at the reset (closed between two ticks)".into(),
