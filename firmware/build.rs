@@ -56,6 +56,20 @@ fn write_world(manifest: &std::path::Path, out: &std::path::Path) {
     };
     let scenario = world::Scenario::load(&path).unwrap_or_else(|e| fail(e.to_string()));
     let robot = world::RobotWorld::of(&scenario).unwrap_or_else(|e| fail(e.to_string()));
-    let text = world::codegen::firmware_constants(&robot, &path.display().to_string());
+    let mut text = world::codegen::firmware_constants(&robot, &path.display().to_string());
+    // The world's identity: a hash of its constants (the first line names the file, which
+    // may move), so that state saved in another world is never resumed in this one.
+    let constants = text.split_once('\n').map_or("", |(_, rest)| rest);
+    text.push_str(&format!(
+        "/// A hash of this world's constants (FNV-1a): what the retained state is tagged with.\npub const WORLD_ID: u32 = {:#010x};\n",
+        fnv1a(constants.as_bytes())
+    ));
     fs::write(out.join("world.rs"), text).expect("cannot write world.rs into OUT_DIR");
+}
+
+/// 32-bit FNV-1a.
+fn fnv1a(bytes: &[u8]) -> u32 {
+    bytes.iter().fold(0x811c_9dc5, |h: u32, &b| {
+        (h ^ u32::from(b)).wrapping_mul(0x0100_0193)
+    })
 }

@@ -10,7 +10,9 @@
 //! (every task's fault counters).
 //!
 //! Boot: the robot must stand still for about 1.1 s after reset while the IMU task
-//! calibrates the gyro bias; the motion task starts the route only after that.
+//! calibrates the gyro bias; the motion task starts the route only after that. Before
+//! anything is spawned, [`reset_cause`] says why the chip started and [`retained`] takes
+//! up the map, pose and route from before a watchdog reset, or starts them afresh.
 #![no_std]
 #![no_main]
 #![deny(unsafe_code)]
@@ -18,6 +20,7 @@
 
 use embassy_executor::Spawner;
 use embassy_rp::peripherals::{DMA_CH0, DMA_CH1, DMA_CH2, I2C0, I2C1, UART0, USB};
+use embassy_rp::watchdog::Watchdog;
 use embassy_rp::{bind_interrupts, dma, i2c, uart};
 use defmt_rtt as _;
 
@@ -26,6 +29,8 @@ mod health;
 mod inputs;
 mod motion;
 mod panic;
+mod reset_cause;
+mod retained;
 mod sensors;
 mod slam_task;
 mod status_led;
@@ -56,7 +61,14 @@ async fn main(spawner: Spawner) {
     // First, while only core 0 runs: it reads the flash chip's ID for the serial number.
     let (usb_device, usb_serial) = usb::build(board.usb, Irqs);
 
-    spawner.spawn(defmt::unwrap!(slam_task::slam_task(board.watchdog, inputs)));
+    // Why the chip started, read before the watchdog is started again; then the state.
+    let watchdog = Watchdog::new(board.watchdog);
+    let (saved, start) = retained::open(reset_cause::read(&watchdog), slam_task::fresh_slam);
+    let resume = start.route;
+    motion::ROUTE_POINT.store(resume.0, portable_atomic::Ordering::Relaxed);
+    spawner.spawn(defmt::unwrap!(slam_task::slam_task(
+        watchdog, inputs, saved, start
+    )));
     #[cfg(feature = "vl53l5cx")]
     {
         sensors::depth::start_core1(board.depth);
@@ -90,7 +102,8 @@ async fn main(spawner: Spawner) {
     spawner.spawn(defmt::unwrap!(motion::motion_task(
         board.motors,
         inputs,
-        motion_reports
+        motion_reports,
+        resume
     )));
     spawner.spawn(defmt::unwrap!(status_led::status_led_task(
         board.status_led

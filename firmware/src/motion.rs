@@ -47,12 +47,13 @@
 use drivers::motors::{HBridge, MotorConfig, Motors, PerMille};
 use embassy_rp::pwm::{self, Pwm, PwmError, PwmOutput};
 use embassy_time::{Duration, Instant, Ticker};
-use portable_atomic::{AtomicI32, Ordering};
+use portable_atomic::{AtomicI32, AtomicU32, Ordering};
 use slam_core::{Decision, Input};
 
 use crate::board::{MotorPins, MOTOR_PWM_TOP};
 use crate::health::HEALTH;
 use crate::inputs::Inputs;
+use crate::retained::RoutePoint;
 use crate::slam_task::ReportReceiver;
 use crate::world::{self, WHEEL_BASE_MM, WHEEL_FULL_SPEED_MM_S};
 
@@ -107,6 +108,21 @@ pub enum Leg {
 /// millimetres per second (0: none left): what the SLAM task asks the guard about.
 pub static DRIVE_SPEED_MM_S: AtomicI32 = AtomicI32::new(0);
 
+/// Where the route is (a [`RoutePoint`]'s bits): set by this task as it goes, read by the
+/// SLAM loop at the end of each tick into the retained state, so that a watchdog reset
+/// resumes the route there. `main` sets it to where the route resumes before it starts.
+pub static ROUTE_POINT: AtomicU32 = AtomicU32::new(0);
+
+/// Where the route is now.
+pub fn route_point() -> RoutePoint {
+    RoutePoint(ROUTE_POINT.load(Ordering::Relaxed))
+}
+
+/// Records that leg `leg` is `done` in (millidegrees turned or milliseconds driven).
+fn reached(leg: usize, done: u32) {
+    ROUTE_POINT.store(RoutePoint::new(leg, done).0, Ordering::Relaxed);
+}
+
 /// The speed of the first drive leg from `legs` on, millimetres per second; 0 if none.
 fn next_drive_speed(legs: &[Leg]) -> i32 {
     legs.iter()
@@ -130,12 +146,14 @@ const TURN_GRACE: Duration = Duration::from_secs(2);
 type DriveMotors =
     Motors<PwmOutput<'static>, PwmOutput<'static>, PwmOutput<'static>, PwmOutput<'static>>;
 
-/// Owns the motors: waits for the gyro, drives [`world::ROUTE`], then coasts for good.
+/// Owns the motors: waits for the gyro, drives [`world::ROUTE`] from `resume` on (the
+/// start, or where a watchdog reset cut it off), then coasts for good.
 #[embassy_executor::task]
 pub async fn motion_task(
     pins: MotorPins,
     inputs: &'static Inputs,
     mut reports: ReportReceiver,
+    resume: RoutePoint,
 ) -> ! {
     let Some(mut motors) = motors(pins) else {
         defmt::error!("motion: motors did not start; staying put");
@@ -161,14 +179,24 @@ pub async fn motion_task(
         halted: false,
         guard: Decision::Go,
     };
-    for (i, leg) in world::ROUTE.iter().enumerate() {
+    if resume != RoutePoint::default() {
+        defmt::info!(
+            "motion: resuming the route at leg {=usize}, {=u32} in",
+            resume.leg(),
+            resume.done()
+        );
+    }
+    let legs = world::ROUTE.iter().enumerate().skip(resume.leg());
+    for (i, leg) in legs {
         defmt::info!("motion: leg {=usize}: {}", i, leg);
         let ahead = world::ROUTE.get(i..).unwrap_or(&[]);
         DRIVE_SPEED_MM_S.store(next_drive_speed(ahead), Ordering::Relaxed);
+        // Only the leg a reset cut off starts part done.
+        let done = if i == resume.leg() { resume.done() } else { 0 };
         let finished = match *leg {
-            Leg::Turn { mdeg, rate_mdps } => pilot.turn(mdeg, rate_mdps).await,
+            Leg::Turn { mdeg, rate_mdps } => pilot.turn(i, mdeg, done, rate_mdps).await,
             Leg::Drive { time, speed_mm_s } => {
-                pilot.drive(time, speed_mm_s).await;
+                pilot.drive(i, time, done, speed_mm_s).await;
                 true
             }
         };
@@ -177,6 +205,8 @@ pub async fn motion_task(
             break;
         }
     }
+    // Done or abandoned: a reset from here on does not drive it again.
+    reached(world::ROUTE.len(), 0);
     pilot.coast();
     defmt::info!("motion: route done, motors coasting");
     crate::sensors::park().await
@@ -224,9 +254,12 @@ struct Pilot<'a> {
 }
 
 impl Pilot<'_> {
-    /// Turns by `mdeg` at `rate_mdps` until the gyro says so; `false` if it took too long.
-    async fn turn(&mut self, mdeg: i64, rate_mdps: i64) -> bool {
+    /// Turns leg `leg`, `mdeg` of which `done` are turned already, at `rate_mdps` until
+    /// the gyro says so; `false` if it took too long.
+    async fn turn(&mut self, leg: usize, mdeg: i64, done: u32, rate_mdps: i64) -> bool {
         let direction = if mdeg >= 0 { 1 } else { -1 };
+        let done = i64::from(done);
+        let mdeg = (mdeg.abs() - done).max(0) * direction;
         let command = turn_permille(rate_mdps.abs() * direction);
         let planned_ms = mdeg.abs() * 1000 / rate_mdps.abs().max(1);
         let limit =
@@ -237,6 +270,7 @@ impl Pilot<'_> {
         let mut held = Duration::from_ticks(0);
         loop {
             let turned = (self.inputs.yaw.yaw_mdeg() - start_yaw) * direction;
+            reached(leg, u32::try_from(done + turned).unwrap_or(0));
             if turned >= mdeg.abs() {
                 self.coast();
                 return true;
@@ -260,11 +294,11 @@ impl Pilot<'_> {
         }
     }
 
-    /// Drives at `speed_mm_s` for `time` of running (halts do not count), or until the
-    /// guard stops it.
-    async fn drive(&mut self, time: Duration, speed_mm_s: i64) {
+    /// Drives leg `leg` at `speed_mm_s` for `time` of running (halts do not count), `done`
+    /// milliseconds of which are driven already, or until the guard stops it.
+    async fn drive(&mut self, leg: usize, time: Duration, done: u32, speed_mm_s: i64) {
         let command = forward_permille(speed_mm_s);
-        let mut driven = Duration::from_ticks(0);
+        let mut driven = Duration::from_millis(u64::from(done));
         let mut ticker = Ticker::every(CONTROL_PERIOD);
         let mut previous = Instant::now();
         while driven < time {
@@ -273,6 +307,8 @@ impl Pilot<'_> {
                 Decision::Stop(obstacle) => {
                     defmt::warn!("motion: guard stop before {}; leg skipped", obstacle);
                     HEALTH.guard_stops.bump();
+                    // Skipped: a reset does not drive the rest of it.
+                    reached(leg, u32::MAX);
                     break;
                 }
                 // The leg's clock stops while an input it needs is doubted.
@@ -289,6 +325,7 @@ impl Pilot<'_> {
             let now = Instant::now();
             if was_running {
                 driven += now.saturating_duration_since(previous);
+                reached(leg, u32::try_from(driven.as_millis()).unwrap_or(u32::MAX));
             }
             previous = now;
         }

@@ -16,20 +16,18 @@
 //! `Schedule::DEFAULT` (one map chunk a tick) where the robot sends two (see
 //! [`TELEMETRY_SCHEDULE`]), so only the map sweep's pace differs.
 
-use embassy_rp::peripherals::WATCHDOG;
-use embassy_rp::watchdog::{ResetReason, Watchdog};
-use embassy_rp::Peri;
+use embassy_rp::watchdog::Watchdog;
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::channel::Channel;
 use embassy_sync::watch::{Receiver, Watch};
 use embassy_time::{Duration, Instant, Ticker};
 use portable_atomic::Ordering;
 use slam_core::{Decision, DriveCommand, GuardConfig, Localiser, Pose, SensorFrame, StepReport};
-use static_cell::StaticCell;
 use wire::telemetry::{encode, FirmwareVersion, Message, Schedule, Streamer, MAX_FRAME_LEN};
 
 use crate::health::HEALTH;
 use crate::inputs::Inputs;
+use crate::retained::{Saved, Start};
 use crate::world::{self, WorldSlam};
 
 /// The SLAM period: 10 Hz, the rate the core's odometry and mapping are tuned for.
@@ -129,13 +127,16 @@ pub static REPORTS: Watch<CriticalSectionRawMutex, TickReport, REPORT_READERS> =
 /// A follower of [`REPORTS`].
 pub type ReportReceiver = Receiver<'static, CriticalSectionRawMutex, TickReport, REPORT_READERS>;
 
-/// The SLAM state. It holds the whole grid (a byte a cell, its size from the world
-/// file), so it lives in a static, not in the task's future or on the stack.
-///
-/// `Slam::new` returns the state by value, so it is built on the stack once at start and
-/// moved in; the core offers only `reset` in place. A `const fn` constructor (or one that
-/// fills a `&mut MaybeUninit<Slam>`) would let a big grid start life in `.bss`.
-static SLAM: StaticCell<WorldSlam> = StaticCell::new();
+/// A new core at the world's start with an empty map: what the retained state starts as
+/// when there is nothing to resume. `Slam::new` returns it by value, so it is built on the
+/// stack once and moved into the retained block (`crate::retained`).
+pub fn fresh_slam() -> WorldSlam {
+    match WorldSlam::new(world::slam_config(LOCALISER), START_POSE) {
+        Ok(slam) => slam,
+        // The configuration is fixed at build time and tested on the host: this is a bug.
+        Err(e) => defmt::panic!("slam: configuration rejected: {}", e),
+    }
+}
 
 /// Health of the loop itself; the core keeps its own [`slam_core::Counters`].
 #[derive(Clone, Copy, Default, defmt::Format)]
@@ -151,23 +152,47 @@ pub struct LoopCounters {
     pub max_step_us: u32,
     /// Worst time spent framing the tick's telemetry, in microseconds.
     pub max_telemetry_us: u32,
+    /// Worst time spent closing the retained state after the step, in microseconds.
+    pub max_save_us: u32,
 }
 
-/// Runs the SLAM loop for good.
+/// Runs the SLAM loop for good on `saved` (the core, resumed or fresh, as `start` says),
+/// feeding `watchdog`.
 #[embassy_executor::task]
-pub async fn slam_task(watchdog: Peri<'static, WATCHDOG>, inputs: &'static Inputs) -> ! {
-    let mut watchdog = Watchdog::new(watchdog);
-    match watchdog.reset_reason() {
-        Some(ResetReason::TimedOut) => defmt::warn!("slam: last reset was a watchdog timeout"),
-        Some(ResetReason::Forced) => defmt::info!("slam: last reset was forced"),
-        None => {}
-    }
-
-    let slam = match WorldSlam::new(world::slam_config(LOCALISER), START_POSE) {
-        Ok(slam) => SLAM.init(slam),
-        // The configuration is fixed at build time and tested on the host: this is a bug.
-        Err(e) => defmt::panic!("slam: configuration rejected: {}", e),
+pub async fn slam_task(
+    mut watchdog: Watchdog,
+    inputs: &'static Inputs,
+    mut saved: Saved,
+    start: Start,
+) -> ! {
+    let boot = start.boot;
+    // The run's clock carries on over a resumed reset: the last close before it, plus the
+    // watchdog's timeout (it fired that long after the feed that followed the close).
+    let run_offset_ms = match start.fresh {
+        None => start
+            .run_ms
+            .saturating_add(WATCHDOG_TIMEOUT.as_millis() as u32),
+        Some(_) => 0,
     };
+    match start.fresh {
+        None => {
+            let slam = saved.slam();
+            defmt::warn!(
+                "slam: restarted after a {}: resumed at tick {=u32}, pose {}, {=u32} beams mapped, route at {} (resume {=u16})",
+                boot.cause,
+                slam.counters().ticks,
+                slam.pose(),
+                slam.counters().beams_mapped,
+                start.route,
+                boot.resumes
+            );
+        }
+        Some(why) => defmt::info!(
+            "slam: started after a {}: fresh at the world's start ({})",
+            boot.cause,
+            why
+        ),
+    }
     defmt::info!(
         "slam: world {=str}, {=usize} x {=usize} grid, {=usize} bytes of state, start {}",
         world::NAME,
@@ -182,7 +207,8 @@ pub async fn slam_task(watchdog: Peri<'static, WATCHDOG>, inputs: &'static Input
     watchdog.start(WATCHDOG_TIMEOUT);
 
     let reports = REPORTS.sender();
-    let mut streamer = Streamer::new(TELEMETRY_SCHEDULE, FIRMWARE_VERSION, LOCALISER);
+    let mut streamer =
+        Streamer::new(TELEMETRY_SCHEDULE, FIRMWARE_VERSION, LOCALISER).with_boot(boot);
     let mut health = LoopCounters::default();
     let mut ticker = Ticker::every(TICK);
     let mut deadline = Instant::now() + TICK;
@@ -226,6 +252,10 @@ pub async fn slam_task(watchdog: Peri<'static, WATCHDOG>, inputs: &'static Input
         }
 
         let trusted_before = trust;
+        // Between open and close the retained state is being changed: a reset in there
+        // starts fresh rather than resume half a tick.
+        saved.open_tick();
+        let slam = saved.slam();
         let report = slam.step(&frame);
         trust = report.trust;
         if trust != trusted_before {
@@ -245,9 +275,18 @@ pub async fn slam_task(watchdog: Peri<'static, WATCHDOG>, inputs: &'static Input
             &report.trust,
             command,
         );
+        let stepped = Instant::now();
+        let time_ms = u32::try_from(started.as_millis())
+            .unwrap_or(u32::MAX)
+            .saturating_add(run_offset_ms);
+        saved.close(crate::motion::route_point(), time_ms);
+        let slam = saved.slam();
         health.max_step_us = health
             .max_step_us
-            .max(micros(Instant::now().saturating_duration_since(started)));
+            .max(micros(stepped.saturating_duration_since(started)));
+        health.max_save_us = health
+            .max_save_us
+            .max(micros(Instant::now().saturating_duration_since(stepped)));
         health.ticks = health.ticks.wrapping_add(1);
 
         watchdog.feed(WATCHDOG_TIMEOUT);
@@ -258,7 +297,6 @@ pub async fn slam_task(watchdog: Peri<'static, WATCHDOG>, inputs: &'static Input
         });
 
         let framing = Instant::now();
-        let time_ms = u32::try_from(started.as_millis()).unwrap_or(u32::MAX);
         let sensor_health = HEALTH.sensor_health();
         streamer.tick(
             time_ms,

@@ -32,8 +32,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 use wire::framing::BadFrames;
 use wire::telemetry::{
-    encode, serialize_counters, CellScale, DecoderStats, FilterState, FirmwareVersion, Hello,
-    MapRows, Message, Schedule, SensorHealth, StreamDecoder, Streamer, Tick, MAX_FRAME_LEN,
+    encode, serialize_counters, Boot, CellScale, DecoderStats, FilterState, FirmwareVersion, Hello,
+    MapRows, Message, ResetCause, Schedule, SensorHealth, StreamDecoder, Streamer, Tick,
+    MAX_FRAME_LEN,
 };
 
 /// The firmware version the simulator claims in its `Hello`: this crate's.
@@ -436,6 +437,7 @@ impl TelemetryRecorder {
             }),
             grid: self.hello.map(|h| (h.width, h.height)),
             localiser: self.hello.map(|h| localiser_name(h.localiser).to_string()),
+            boot: self.hello.map(|h| h.boot),
             free: map.free as usize,
             occupied: map.occupied as usize,
             known_pct: map.known_pct(),
@@ -538,6 +540,9 @@ pub struct Summary {
     /// What corrects the robot's pose, from the latest `Hello`, as `--pose` names it:
     /// `dead-reckoning`, `tags` or `slam` (the filter).
     pub localiser: Option<String>,
+    /// How the robot's run started, from the latest `Hello`: what reset its chip, and
+    /// whether it resumed its map, pose and route from before.
+    pub boot: Option<Boot>,
     /// Cells believed free in the latest map.
     pub free: usize,
     /// Cells believed occupied in the latest map.
@@ -631,6 +636,21 @@ impl fmt::Display for Summary {
             "telemetry: firmware {fw} ({localiser}), {grid}: {} ticks, {:.1} s",
             self.ticks, self.duration_s
         )?;
+        if let Some(b) = self
+            .boot
+            .filter(|b| b.cause != ResetCause::PowerOn || b.resumed)
+        {
+            let how = if b.resumed {
+                "resumed its map, pose and route"
+            } else {
+                "started fresh"
+            };
+            writeln!(
+                f,
+                "restarted after a {:?} reset: {how} ({} resumes since it last started fresh)",
+                b.cause, b.resumes
+            )?;
+        }
         match self.first_fix_s {
             Some(t) => writeln!(f, "fixes taken {} (first at {t:.1} s)", self.fixes)?,
             None => writeln!(f, "fixes taken 0")?,

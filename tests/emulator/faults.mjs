@@ -21,8 +21,13 @@ export const SENSORS = ['depth', 'flow', 'gyro', 'camera'];
 export const KINDS = ['off', 'stuck', 'garbage', 'wrong', 'slow', 'intermittent'];
 /// Names kept from before the matrix, and what they mean now.
 const ALIASES = { 'depth-nack': 'depth-off', 'gyro-nack': 'gyro-off' };
-/// A fault that only one sensor has.
-const EXTRA = ['flow-no-surface'];
+/// The hangs of core 0: `core0-hang` stops core 0 at its first sleep (every task waiting,
+/// between two SLAM ticks) from S seconds on, `step-hang` inside its first SLAM step from S
+/// seconds on. A hang strikes once and lasts until the watchdog resets the chip (a
+/// duration is ignored).
+export const HANG_KINDS = ['core0-hang', 'step-hang'];
+/// Faults that are not one sensor failing one of the common ways.
+const EXTRA = ['flow-no-surface', ...HANG_KINDS];
 /// Every name `--fault` takes.
 export const FAULT_KINDS = [
   ...SENSORS.flatMap((s) => KINDS.map((k) => `${s}-${k}`)), ...EXTRA, ...Object.keys(ALIASES),
@@ -44,7 +49,7 @@ const WINDOW_S = 0.1;
 /// `NAME@T+S`: fault NAME from S simulated seconds after reset on (`NAME@S` too);
 /// `NAME@T+S/D`: the same, ending D seconds later (the sensor recovers).
 export function parseFault(text) {
-  const m = /^([a-z-]+)@(?:T\+)?([0-9.]+)s?(?:\/([0-9.]+)s?)?$/.exec(text);
+  const m = /^([a-z0-9-]+)@(?:T\+)?([0-9.]+)s?(?:\/([0-9.]+)s?)?$/.exec(text);
   if (!m || !FAULT_KINDS.includes(m[1])) {
     throw new Error(
       `bad --fault ${text}: want SENSOR-KIND@T+SECONDS[/DURATION], SENSOR one of ` +
@@ -93,6 +98,21 @@ export class Faults {
     const f = this.find(kind);
     if (f) f.events++;
     return f !== undefined;
+  }
+
+  /// Whether a fault of `kind` is in force now and has not struck yet; if so it strikes
+  /// (one event) and never again.
+  once(kind) {
+    const t = this.nowS();
+    const f = this.faults.find((x) => x.kind === kind && t >= x.at_s && t < x.until_s && x.events === 0);
+    if (!f) return false;
+    f.events++;
+    return true;
+  }
+
+  /// Whether any fault of one of `kinds` was given.
+  any(kinds) {
+    return this.faults.some((f) => kinds.includes(f.kind));
   }
 
   /// The kind of fault `sensor` suffers now (`off`, `stuck`, ...), or null.
@@ -188,11 +208,18 @@ export function selfTests() {
   const flaky = new Faults([parseFault('depth-intermittent@T+0/10')], () => clock.now);
   let dropped = 0;
   for (let i = 0; i < 100; i++) { clock.now = i / 10; dropped += flaky.silent('depth') ? 1 : 0; }
+  const hang = new Faults([parseFault('core0-hang@T+2')], () => t.now);
+  t.now = 1;
+  const hangEarly = hang.once('core0-hang');
+  t.now = 2.5;
+  const hangStrikes = hang.once('core0-hang');
+  const hangAgain = hang.once('core0-hang');
   return [
     ['fault parse', parseFault('depth-nack@T+3').at_s === 3],
     ['fault duration', parseFault('flow-no-surface@T+5/3').until_s === 8],
     ['fault of no known kind refused', refused && noKind],
-    ['fault every sensor and kind named', FAULT_KINDS.length === 27 && parseFault('camera-slow@2').kind === 'camera-slow'],
+    ['fault every sensor and kind named', FAULT_KINDS.length === 29 && parseFault('camera-slow@2').kind === 'camera-slow'],
+    ['hang strikes once', !hangEarly && hangStrikes && !hangAgain && hang.any(['core0-hang']) && !faults.any(['core0-hang'])],
     ['fault window', !atFour && atFive && !atEight && faults.faults[0].events === 1],
     ['fault report', JSON.stringify(faults.report()) ===
       '[{"fault":"flow-no-surface@T+5/3","events":1},{"fault":"flow-no-surface@T+9","events":0}]'],

@@ -29,7 +29,8 @@ import { USAGE, parseArgs } from './args.mjs';
 import { bootChip } from './chip.mjs';
 import { readElf, flashImage } from './elf.mjs';
 import {
-  Faults, selfTests as faultTests, WRONG_FLOW_SCALE, WRONG_GYRO_BIAS_MDPS, WRONG_RANGE_MM, WRONG_TAG_PX,
+  Faults, HANG_KINDS, selfTests as faultTests, WRONG_FLOW_SCALE, WRONG_GYRO_BIAS_MDPS, WRONG_RANGE_MM,
+  WRONG_TAG_PX,
 } from './faults.mjs';
 import { selfTests as core1Tests } from './core1.mjs';
 import { selfTests as dividerTests } from './divider.mjs';
@@ -37,7 +38,9 @@ import { patchI2c, patchSpiMode, patchUart, patchUsbDevice, usbDeviceSelfTests }
 import { profilersFromEnv, profileResult } from './profile.mjs';
 import { buildResult } from './result.mjs';
 import { RttDrain } from './rtt.mjs';
-import { runBothCores } from './scheduler.mjs';
+import { runBothCores, WATCHDOG_RESET } from './scheduler.mjs';
+import { round } from './result.mjs';
+import { retainedState } from './retained.mjs';
 import { StepMeter, findStep, findFilterCode } from './step.mjs';
 import { UsbHost, selfTests as usbTests } from './usb-host.mjs';
 import { openWorld } from './world.mjs';
@@ -71,68 +74,120 @@ function main() {
   say(`step measurement: ${step.method} ${step.symbol || step.reason || ''}`);
 
   const image = args.bin ? fs.readFileSync(args.bin) : flashImage(elf);
-  const chip = bootChip(image);
-  const { rp, clock, core, later, nowS } = chip;
-  say(`loaded ${image.length} bytes; SP=0x${(core.SP >>> 0).toString(16)} PC=0x${core.PC.toString(16)}`);
+  const first = bootChip(image);
+  const { clock, nowS } = first;
+  say(`loaded ${image.length} bytes; SP=0x${(first.core.SP >>> 0).toString(16)} PC=0x${first.core.PC.toString(16)}`);
 
   const faults = new Faults(args.faults, nowS);
   const world = openWorld(args, REPO);
-  const motors = new Motors(rp);
+  // What is wired to the chip now; a watchdog reset boots a new one (`boot` below).
+  let board = null;
   // The world moves to the emulator's time, the wheels at their duties now, before each
   // sensor read.
   const advanceWorld = () => {
-    motors.read();
-    world.advance(nowS(), motors.left, motors.right);
+    board.motors.read();
+    world.advance(nowS(), board.motors.left, board.motors.right);
   };
 
   // The defmt log is written as it comes, so that xtask can follow the run.
   const defmtFd = args.defmt ? fs.openSync(args.defmt, 'w') : null;
-  const rtt = new RttDrain(rp, rttSym.value, defmtFd);
-  // Both UARTs run BufferedUart; UART1 TX carries the telemetry.
+  const rtt = new RttDrain(first.rp, rttSym.value, defmtFd);
   const telemetry = [];
-  patchUart(rp, rp.uart[0], later, () => {});
-  patchUart(rp, rp.uart[1], later, (byte) => telemetry.push(byte));
-  for (const i2c of rp.i2c) patchI2c(i2c);
-  const devices = attachDevices({ rp, later, clock, faults, world, advanceWorld });
-  // The computer on the USB port, and what it read from the serial port.
   const usbTelemetry = [];
-  const usbHost = args.noUsb ? null : new UsbHost({
-    bus: patchUsbDevice(rp),
-    later,
-    nowS,
-    onSerial: (bytes) => { for (const b of bytes) usbTelemetry.push(b); },
-    say,
-  });
+  // The chip's peripherals patched, the device models and the computer on the USB port
+  // wired to it: at power-on, and again after each watchdog reset (the parts outside the
+  // RP2040 keep running through it, but their models answer the new chip's buses; each
+  // part's firmware start-up takes it from where it is, as on the robot).
+  const boot = (chip) => {
+    const { rp, later } = chip;
+    const motors = new Motors(rp);
+    if (board) motors.maxAbs = board.motors.maxAbs;
+    board = { chip, motors };
+    rtt.rp = rp;
+    // Both UARTs run BufferedUart; UART1 TX carries the telemetry.
+    patchUart(rp, rp.uart[0], later, () => {});
+    patchUart(rp, rp.uart[1], later, (byte) => telemetry.push(byte));
+    for (const i2c of rp.i2c) patchI2c(i2c);
+    board.devices = attachDevices({ rp, later, clock, faults, world, advanceWorld });
+    // The computer on the USB port, and what it read from the serial port.
+    board.usbHost = args.noUsb ? null : new UsbHost({
+      bus: patchUsbDevice(rp),
+      later,
+      nowS,
+      onSerial: (bytes) => { for (const b of bytes) usbTelemetry.push(b); },
+      say,
+    });
+  };
+  boot(first);
 
   // The world's true pose as each step starts (one JSON line per step, `--truth`), for
   // scoring the firmware's pose tick by tick: the step estimates the pose at this instant.
+  // A step that never finishes (a hang, a reset) sends no tick: its line is taken back.
   const truthLines = [];
+  // The retained block at the last reset, to compare as the next step begins.
+  let atReset = null;
   const recordTruth = () => {
+    if (atReset) {
+      Object.assign(resets[resets.length - 1], retained.compare(atReset, retained.read(board.chip.rp)));
+      atReset = null;
+    }
     if (!args.truth || args.noWorld) return;
     advanceWorld();
     truthLines.push(JSON.stringify(world.truth()));
   };
+  const dropTruth = () => {
+    if (args.truth && !args.noWorld) truthLines.pop();
+  };
   const profilers = profilersFromEnv(elf, process.env);
   const filter = step.method === 'none' ? null : findFilterCode(args.elf);
   if (filter) say(`filter measurement: ${filter.method}, ${filter.filterRows} rows in the filter's files`);
-  const meter = new StepMeter(step, { onStart: recordTruth, profile: profilers.stepProfile, filter });
+  const meter = new StepMeter(step, { onStart: recordTruth, onAbandon: dropTruth, profile: profilers.stepProfile, filter });
   const hardFault = elf.symbols.find((s) => s.name === 'HardFault');
+  // A hang fault stops core 0 once: asleep between ticks, or inside a step.
+  const hang = faults.any(HANG_KINDS)
+    ? (asleep, inStep) => (asleep && faults.once('core0-hang')) || (inStep && faults.once('step-hang'))
+    : null;
+  const retained = retainedState(elf);
+  const resets = [];
 
   let run, truth = null;
+  const total = { instructions: 0, core1Instructions: 0, cycles: 0, core1Cycles: 0, wallS: 0 };
   try {
-    run = runBothCores({
-      chip,
-      endNs: args.seconds * 1e9,
-      meter,
-      rtt,
-      pcSamples: profilers.pcSamples,
-      hardFaultPc: hardFault ? hardFault.value & ~1 : -1,
-      maxWallS: args.maxWall,
-    });
+    for (;;) {
+      const chip = board.chip;
+      run = runBothCores({
+        chip,
+        endNs: args.seconds * 1e9,
+        meter,
+        rtt,
+        pcSamples: profilers.pcSamples,
+        hardFaultPc: hardFault ? hardFault.value & ~1 : -1,
+        maxWallS: args.maxWall ? args.maxWall - total.wallS : 0,
+        hang,
+      });
+      total.instructions += run.instructions;
+      total.core1Instructions += run.core1Instructions;
+      total.cycles += chip.core.cycles;
+      total.core1Cycles += chip.core1.launched ? chip.core1.core.cycles : 0;
+      total.wallS += run.wallS;
+      if (run.stopReason !== WATCHDOG_RESET) break;
+      if (board.usbHost) board.usbHost.endOfRun();
+      const reset = {
+        at_s: round(nowS(), 4),
+        reason: chip.rp.peripherals[0x40058].reason === 2 ? 'force' : 'timer',
+        hung_at_s: run.hungAtNs === null ? null : round(run.hungAtNs / 1e9, 4),
+      };
+      resets.push(reset);
+      atReset = retained ? retained.read(chip.rp) : null;
+      say(`watchdog reset at ${reset.at_s} s (core 0 hung at ${reset.hung_at_s} s); booting again with SRAM kept`);
+      boot(bootChip(image, chip));
+    }
     try { advanceWorld(); truth = world.truth(); } catch (e) { say(`truth: ${e.message}`); }
   } finally {
     world.close();
   }
+  run = { ...run, ...total };
+  const { chip: lastChip, devices, usbHost, motors } = board;
 
   if (usbHost) usbHost.endOfRun();
   if (args.telemetry) fs.writeFileSync(args.telemetry, Buffer.from(telemetry));
@@ -141,7 +196,7 @@ function main() {
   if (defmtFd !== null) fs.closeSync(defmtFd);
 
   const result = buildResult({
-    args, chip, run, meter, rtt, world, motors, truth, devices, faults,
+    args, chip: lastChip, run, meter, rtt, world, motors, truth, devices, faults, resets,
     telemetryBytes: telemetry.length,
     usb: usbHost ? usbHost.summary() : 'unplugged (--no-usb)',
     profile: profileResult(profilers, meter.cycles.length),

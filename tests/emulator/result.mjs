@@ -14,7 +14,9 @@ const loadPct = (cycles, seconds) => round((100 * cycles) / (seconds * NOMINAL_C
 
 /// The result from the run's parts, in the key order `cargo xtask emulate` and the
 /// baseline outputs were written with.
-export function buildResult({ args, chip, run, meter, rtt, telemetryBytes, usb, world, motors, truth, devices, faults, profile }) {
+/// `run` holds the figures of every boot summed (instructions and cycles of both cores);
+/// `chip` and `devices` are the last boot's; `resets` lists the watchdog resets.
+export function buildResult({ args, chip, run, meter, rtt, telemetryBytes, usb, world, motors, truth, devices, faults, resets, profile }) {
   const { rp, core, core1, clock, messages } = chip;
   const simS = clock.nanos / 1e9;
   const { flow, imu, imuBus, depth, depthBus, camera } = devices;
@@ -24,8 +26,8 @@ export function buildResult({ args, chip, run, meter, rtt, telemetryBytes, usb, 
     sim_per_wall: round(simS / run.wallS, 2),
     stop_reason: run.stopReason,
     instructions: run.instructions,
-    cycles: core.cycles,
-    cpu_load_pct: loadPct(core.cycles, simS),
+    cycles: run.cycles,
+    cpu_load_pct: loadPct(run.cycles, simS),
     clk_sys_hz: rp.clkSys,
     ...meter.summary(),
     defmt_bytes: rtt.bytes.length,
@@ -42,11 +44,12 @@ export function buildResult({ args, chip, run, meter, rtt, telemetryBytes, usb, 
       uart0_rx_bytes: camera.uartRxBytes,
       uart_tx_overflows: [rp.uart[0].txOverflows || 0, rp.uart[1].txOverflows || 0],
       core1: core1.launched
-        ? { launched: true, instructions: run.core1Instructions, cycles: core1.core.cycles, load_pct: loadPct(core1.core.cycles, simS), fifo_words: core1.fifoWords }
+        ? { launched: true, instructions: run.core1Instructions, cycles: run.core1Cycles, load_pct: loadPct(run.core1Cycles, simS), fifo_words: core1.fifoWords }
         : { launched: false, launch_words: core1.launchWords },
     },
     usb,
     faults_injected: faults.report(),
+    resets,
     emulator_messages: [...messages].slice(0, 20).map(([k, n]) => `${n}x ${k}`),
     ...profile,
   };

@@ -4,14 +4,22 @@
 // clock, and with both asleep the clock jumps to the next alarm.
 
 /// Runs `chip` (from `bootChip`) until `endNs` of simulated time, a HardFault or
-/// breakpoint, both cores asleep with nothing pending, or `maxWallS` seconds of wall time
+/// breakpoint, a watchdog reset (stop reason `WATCHDOG_RESET`: the caller boots the chip
+/// again), both cores asleep with nothing pending, or `maxWallS` seconds of wall time
 /// (0: no limit). `meter` measures the step on core 0, `rtt` is drained as the run goes,
-/// `pcSamples` (or null) samples core 0's PC. Returns `{ stopReason, instructions,
-/// core1Instructions, wallS }`.
-export function runBothCores({ chip, endNs, meter, rtt, pcSamples, hardFaultPc, maxWallS }) {
-  const { clock, rp, core, core1 } = chip;
+/// `pcSamples` (or null) samples core 0's PC. `hang` (or null) is asked before each of
+/// core 0's instructions: `hang(asleep, inStep)` true stops core 0 for good (a hung core:
+/// no instruction, no interrupt; its peripherals and core 1 run on). Returns
+/// `{ stopReason, instructions, core1Instructions, wallS, hungAtNs }`.
+export function runBothCores({ chip, endNs, meter, rtt, pcSamples, hardFaultPc, maxWallS, hang = null }) {
+  const { clock, rp, core: c0, core1 } = chip;
+  // Core 0 as the loop sees it: hung, it sleeps and never wakes.
+  let hungAtNs = null;
+  const core = {
+    get waiting() { return hungAtNs !== null || c0.waiting; },
+  };
   let stopReason = null;
-  rp.onBreak = (code) => { stopReason = `breakpoint/udf ${code} at PC 0x${core.PC.toString(16)}`; };
+  rp.onBreak = (code) => { stopReason = `breakpoint/udf ${code} at PC 0x${c0.PC.toString(16)}`; };
   let asleepWithNothing = false;
   const wallStart = process.hrtime.bigint();
   let instr = 0;
@@ -21,6 +29,11 @@ export function runBothCores({ chip, endNs, meter, rtt, pcSamples, hardFaultPc, 
   let t0 = 0, t1 = 0;
   const c1Awake = () => core1.launched && !c1.waiting;
   while (clock.nanos < endNs && !stopReason) {
+    if (chip.watchdogFired()) { stopReason = WATCHDOG_RESET; break; }
+    if (hang && hungAtNs === null && hang(c0.waiting, meter.open)) {
+      hungAtNs = clock.nanos;
+      meter.abandon();
+    }
     if (core.waiting) {
       meter.close();
       if (!c1Awake()) {
@@ -41,13 +54,13 @@ export function runBothCores({ chip, endNs, meter, rtt, pcSamples, hardFaultPc, 
       continue;
     }
     if (t0 < clock.nanos) t0 = clock.nanos;
-    const pc = core.PC;
-    const inside = meter.before(pc, core);
+    const pc = c0.PC;
+    const inside = meter.before(pc, c0);
     if (pc === hardFaultPc) { stopReason = 'HardFault'; break; }
     if (pcSamples) pcSamples.sample(instr, pc);
-    const before = core.cycles;
-    const c = core.executeInstruction();
-    if (meter.open) meter.after(pc, core, before, inside);
+    const before = c0.cycles;
+    const c = c0.executeInstruction();
+    if (meter.open) meter.after(pc, c0, before, inside);
     t0 += c * cycleNs;
     const until = c1Awake() ? Math.min(t0, t1) : t0;
     if (until > clock.nanos) clock.tick(until - clock.nanos);
@@ -60,12 +73,17 @@ export function runBothCores({ chip, endNs, meter, rtt, pcSamples, hardFaultPc, 
       }
     }
   }
-  meter.close();
+  if (stopReason === WATCHDOG_RESET) meter.abandon();
+  else meter.close();
   rtt.drain();
   return {
     stopReason: stopReason || (asleepWithNothing ? 'core asleep with no alarm pending' : 'time'),
     instructions: instr,
     core1Instructions: instr1,
     wallS: Number(process.hrtime.bigint() - wallStart) / 1e9,
+    hungAtNs,
   };
 }
+
+/// The stop reason of a run the watchdog ended by resetting the chip.
+export const WATCHDOG_RESET = 'watchdog reset';

@@ -120,11 +120,11 @@ export function findFilterCode(elfPath) {
 /// ranges). Cycles spent in interrupt handlers inside the window are not the step's.
 export class StepMeter {
   /// `step`: what `findStep` found. `onStart()`: called as each step begins, before its
-  /// first instruction runs. `profile`: a `functionProfiler`, or null. `filter`: what
+  /// first instruction runs; `onAbandon()` when one never finishes. `profile`: a `functionProfiler`, or null. `filter`: what
   /// `findFilterCode` found, or null: each instruction of the step is the filter's when
   /// it comes from the filter's files, or from library code (builtins, `core`) reached
   /// from them; an instruction from any other file of ours ends the filter's part.
-  constructor(step, { onStart, profile, filter = null }) {
+  constructor(step, { onStart, onAbandon = () => {}, profile, filter = null }) {
     this.step = step;
     this.isFunction = step.method === 'function';
     this.ranges = step.ranges || [];
@@ -133,6 +133,7 @@ export class StepMeter {
     this.lo = step.method === 'inlined-ranges' ? step.lo : this.isFunction ? step.entry : 1;
     this.hi = step.method === 'inlined-ranges' ? step.hi : this.isFunction ? step.entry + 2 : 0;
     this.onStart = onStart;
+    this.onAbandon = onAbandon;
     this.profile = profile;
     this.open = false;
     this.start = 0;
@@ -210,6 +211,15 @@ export class StepMeter {
       this.fnReturn = -1;
       this.close();
     }
+  }
+
+  /// Drops the step in progress, if any, unmeasured: the core stopped inside it (a hang,
+  /// a reset) and it never finished. `onAbandon()` is called if there was one.
+  abandon() {
+    this.fnReturn = -1;
+    if (!this.open) return;
+    this.open = false;
+    this.onAbandon();
   }
 
   /// Ends the step in progress, if any.

@@ -40,6 +40,7 @@ fn hello() -> Message {
         occupied_above: 16,
         firmware: FW,
         localiser: Localiser::Filter,
+        boot: Boot::default(),
     })
 }
 
@@ -266,9 +267,53 @@ fn filter_frame_fixture() {
     assert_eq!(decode_all(&sealed(&raw)).0, std::vec![Ok(m)]);
 }
 
+/// A `Hello`'s postcard body.
+fn hello_body(m: &Message) -> std::vec::Vec<u8> {
+    postcard::to_slice(m, &mut [0u8; 64])
+        .map(|b| b.to_vec())
+        .unwrap_or_default()
+}
+
+#[test]
+fn hello_carries_the_boot() {
+    // The last three bytes: the reset cause (0 power-on, 1 watchdog, 2 other), resumed or
+    // not, and the resumes as a varint.
+    for (cause, byte) in [
+        (ResetCause::PowerOn, 0),
+        (ResetCause::Watchdog, 1),
+        (ResetCause::Other, 2),
+    ] {
+        let mut m = hello();
+        if let Message::Hello(h) = &mut m {
+            h.boot = Boot {
+                cause,
+                resumed: cause == ResetCause::Watchdog,
+                resumes: 3,
+            };
+        }
+        let body = hello_body(&m);
+        let resumed = u8::from(cause == ResetCause::Watchdog);
+        assert_eq!(body.get(body.len() - 3..), Some(&[byte, resumed, 3][..]));
+        assert_eq!(decode_all(&frame(&m)).0, std::vec![Ok(m)]);
+    }
+    // No fourth cause, and a flag is 0 or 1.
+    for (from_end, bad) in [(3, 3), (2, 2)] {
+        let mut body = hello_body(&hello());
+        let at = body.len() - from_end;
+        body[at] = bad;
+        let mut raw = std::vec![0xB6];
+        raw.extend(body);
+        assert_eq!(
+            decode_all(&sealed(&raw)).0,
+            std::vec![Err(FrameError::Body)],
+            "byte {bad} {from_end} from the end"
+        );
+    }
+}
+
 #[test]
 fn hello_carries_the_localiser() {
-    // The last byte before the CRC: 0 dead reckoning, 1 two-tag fix, 2 filter.
+    // The byte before the boot's three: 0 dead reckoning, 1 two-tag fix, 2 filter.
     for (localiser, byte) in [
         (Localiser::DeadReckoning, 0),
         (Localiser::TwoTagFix, 1),
@@ -278,19 +323,14 @@ fn hello_carries_the_localiser() {
         if let Message::Hello(h) = &mut m {
             h.localiser = localiser;
         }
-        let body = postcard::to_slice(&m, &mut [0u8; 64])
-            .map(|b| b.to_vec())
-            .unwrap_or_default();
-        assert_eq!(body.last(), Some(&byte), "{localiser:?}");
+        let body = hello_body(&m);
+        assert_eq!(body.get(body.len() - 4), Some(&byte), "{localiser:?}");
         assert_eq!(decode_all(&frame(&m)).0, std::vec![Ok(m)]);
     }
     // No fourth localiser.
-    let mut body = postcard::to_slice(&hello(), &mut [0u8; 64])
-        .map(|b| b.to_vec())
-        .unwrap_or_default();
-    if let Some(last) = body.last_mut() {
-        *last = 3;
-    }
+    let mut body = hello_body(&hello());
+    let at = body.len() - 4;
+    body[at] = 3;
     let mut raw = std::vec![0xB6];
     raw.extend(body);
     assert_eq!(
@@ -470,6 +510,11 @@ fn worst_case_messages_fit() {
         h.cell_mm = i32::MIN;
         h.origin_x_mm = i32::MIN;
         h.origin_y_mm = i32::MIN;
+        h.boot = Boot {
+            cause: ResetCause::Other,
+            resumed: true,
+            resumes: u16::MAX,
+        };
     }
     for (m, limit) in [
         (big, 142),
@@ -477,7 +522,7 @@ fn worst_case_messages_fit() {
         (worst_tick, 119),
         (worst_filter, 116),
         (Message::Health(all_max), 66),
-        (worst_hello, 34),
+        (worst_hello, 39),
     ] {
         let bytes = frame(&m);
         assert!(bytes.len() <= limit, "{} > {limit}", bytes.len());
@@ -562,12 +607,13 @@ fn every_flipped_bit_is_caught() {
 
 #[test]
 fn wrong_version_and_bad_body_are_told_apart() {
-    // Layouts 1 to 4's health frames: older firmwares'.
+    // Layouts 1 to 5's health frames: older firmwares'.
     for old in [
         std::vec![0xB1, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0],
         std::vec![0xB2, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0],
         std::vec![0xB3, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0],
         std::vec![0xB4, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0],
+        std::vec![0xB5, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0],
     ] {
         assert_eq!(
             decode_all(&sealed(&old)).0,
@@ -763,6 +809,47 @@ fn a_filter_follows_each_tick_with_an_estimate() {
         unreachable!()
     };
     assert_eq!(h.localiser, Localiser::Filter);
+    assert_eq!(h.boot, Boot::default());
+}
+
+#[test]
+fn every_hello_carries_the_boot_it_was_given() {
+    let boot = Boot {
+        cause: ResetCause::Watchdog,
+        resumed: true,
+        resumes: 2,
+    };
+    let schedule = Schedule {
+        hello_every_ticks: 2,
+        ..Schedule::DEFAULT
+    };
+    let mut s = Streamer::new(schedule, FW, Localiser::Filter).with_boot(boot);
+    let map = seed_map();
+    let report = StepReport {
+        pose: Pose::default(),
+        fix: FixOutcome::NotAttempted,
+        stale: Staleness::default(),
+        cells_written: 0,
+        counters: Counters::default(),
+        estimate: None,
+    };
+    let mut hellos = std::vec::Vec::new();
+    for _ in 0..4 {
+        s.tick(
+            0,
+            &SensorFrame::empty(100_000),
+            &report,
+            TagCounters::default(),
+            &map,
+            &SensorHealth::default(),
+            |m| {
+                if let Message::Hello(h) = m {
+                    hellos.push(h.boot);
+                }
+            },
+        );
+    }
+    assert_eq!(hellos, std::vec![boot, boot]);
 }
 
 #[test]

@@ -134,12 +134,23 @@ fn test() -> Result<(), String> {
     stage::timed("firmware-build", || firmware::run(&FirmwareArgs::default()))?;
     let (fault_passed, fault_failed) = stage::timed("emulator-faults", emulate::checks::fault_run)?;
     let (route_passed, route_failed) = stage::timed("emulator-route", emulate::checks::route_run)?;
+    let (reset_passed, reset_failed) = stage::timed("emulator-reset", emulate::checks::reset_run)?;
     // Last, as it leaves the firmware built for the room rather than the seed mat.
     let (room_passed, room_failed) = stage::timed("emulator-room", emulate::checks::room_run)?;
-    let passed =
-        cargo_passed + browser_passed + self_passed + fault_passed + route_passed + room_passed;
-    let failed =
-        cargo_failed + browser_failed + self_failed + fault_failed + route_failed + room_failed;
+    let passed = cargo_passed
+        + browser_passed
+        + self_passed
+        + fault_passed
+        + route_passed
+        + reset_passed
+        + room_passed;
+    let failed = cargo_failed
+        + browser_failed
+        + self_failed
+        + fault_failed
+        + route_failed
+        + reset_failed
+        + room_failed;
     println!("tests: {passed} passed, {failed} failed");
     if failed > 0 {
         return Err(format!("{failed} tests failed"));

@@ -52,5 +52,6 @@ pub fn hello(width: u16, height: u16) -> Hello {
         occupied_above: 16,
         firmware: FirmwareVersion::default(),
         localiser: Localiser::TwoTagFix,
+        boot: Default::default(),
     }
 }

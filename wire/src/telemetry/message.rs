@@ -23,6 +23,34 @@ pub struct FirmwareVersion {
     pub patch: u8,
 }
 
+/// What reset the robot's chip before this run of the firmware.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ResetCause {
+    /// Power-on or brown-out: RAM held nothing (variant 0).
+    #[default]
+    PowerOn,
+    /// The watchdog timed out: a loop stopped feeding it (variant 1).
+    Watchdog,
+    /// Anything else: the RUN pin, a debugger, a deliberate reboot (variant 2).
+    Other,
+}
+
+/// How this run of the firmware started: why the chip reset, and whether the map, the
+/// pose and the route were taken up from RAM the reset left alone.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Boot {
+    /// What reset the chip.
+    #[serde(rename = "reset")]
+    pub cause: ResetCause,
+    /// Whether the state from before the reset was resumed (else the robot started fresh
+    /// at the world's start with an empty map).
+    pub resumed: bool,
+    /// Resets resumed from since the robot last started fresh.
+    pub resumes: u16,
+}
+
 /// What a viewer needs before it can draw anything: the grid and who sent it.
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -47,15 +75,19 @@ pub struct Hello {
     /// is followed by a [`FilterState`].
     #[serde(with = "LocaliserDef")]
     pub localiser: Localiser,
+    /// How this run started: the robot says in every `Hello` that it restarted, and why.
+    pub boot: Boot,
 }
 
 impl Hello {
-    /// The `Hello` describing `map`, corrected by `localiser`. Dimensions past `u16::MAX`
-    /// saturate (no such grid fits in an RP2040's 264 KB anyway).
+    /// The `Hello` describing `map`, corrected by `localiser`, from a run that started as
+    /// `boot` says. Dimensions past `u16::MAX` saturate (no such grid fits in an RP2040's
+    /// 264 KB anyway).
     pub fn new<const W: usize, const H: usize>(
         map: &GridMap<W, H>,
         firmware: FirmwareVersion,
         localiser: Localiser,
+        boot: Boot,
     ) -> Hello {
         let g = map.geometry();
         let scale = CellScale::new(map.evidence());
@@ -69,6 +101,7 @@ impl Hello {
             occupied_above: scale.occupied_above,
             firmware,
             localiser,
+            boot,
         }
     }
 
@@ -87,7 +120,8 @@ impl Hello {
 pub struct Tick {
     /// Steps run, this one included (the core's `counters.ticks`).
     pub tick: u32,
-    /// Time of the tick since start, milliseconds (wraps after 49 days).
+    /// Time of the tick since the run started, milliseconds (wraps after 49 days); a
+    /// reset the robot resumed from carries it on.
     pub time_ms: u32,
     /// Pose x, micrometres.
     pub x_um: i32,

@@ -35,7 +35,7 @@
 //!
 //! | index | message | fields |
 //! |---|---|---|
-//! | 0 | `Hello` | `width: u16`, `height: u16` (cells), `cell_mm: i32`, `origin_x_mm: i32`, `origin_y_mm: i32`, `free_below: i8`, `occupied_above: i8` (cell units, below), `firmware: u8 major, u8 minor, u8 patch`, `localiser` (varint 0 dead reckoning, 1 two-tag fix, 2 filter) |
+//! | 0 | `Hello` | `width: u16`, `height: u16` (cells), `cell_mm: i32`, `origin_x_mm: i32`, `origin_y_mm: i32`, `free_below: i8`, `occupied_above: i8` (cell units, below), `firmware: u8 major, u8 minor, u8 patch`, `localiser` (varint 0 dead reckoning, 1 two-tag fix, 2 filter), then how the run started: `reset` (varint 0 power-on, 1 watchdog, 2 other), `resumed: bool` (one byte 0 or 1: the map, pose and route were taken up from before the reset), `resumes: u16` (resets resumed from since the last fresh start) |
 //! | 1 | `Tick` | `tick: u32`, `time_ms: u32`, `x_um: i32`, `y_um: i32`, `heading_bits: u32` (2^32 per turn, clockwise from +y), `fix` (varint 0 not attempted, 1 taken, 2 rejected followed by varint 0 geometry / 1 gate / 2 too old), `stale: u8` (bit 0 flow, bit 1 gyro, bit 2 depth), `cells_written: u32`, `doubts: u16` (the inputs the core doubts and why, four bits each: gyro in bits 0-3, flow 4-7, depth 8-11; 0 trusted, 1 missing, 2 stuck, 3 impossible, 4 jump, 5 moved while held), then the counters as `u32`: ticks, fixes_taken, fixes_rejected_geometry, fixes_rejected_gate, fixes_rejected_too_old, relocalisations, beams_mapped, beams_invalid, flow_stale, gyro_stale, depth_stale, gyro_doubted, flow_doubted, depth_doubted, scans_withheld |
 //! | 2 | `MapRows` | `first_row: u16`, `first_column: u16`, `cells`: varint count (at most [`MAX_CHUNK_CELLS`]) then one `i8` per cell |
 //! | 3 | `Health` | twelve `u32`: depth_timeouts, depth_bus_errors, flow_no_surface, flow_outliers, flow_bus_errors, gyro_bus_errors, camera_bad_frames, tick_overruns, watchdog_feeds, depth_start_failures, flow_start_failures, gyro_start_failures |
@@ -59,8 +59,8 @@
 //! The longest frame is [`MAX_FRAME_LEN`] (202) bytes, a full `Inputs`. On the seed's
 //! 46 x 46 grid at 10 Hz with [`Schedule::DEFAULT`]: a `MapRows` of two rows (92 cells)
 //! is 101 bytes a tick, an `Inputs` at most 202, a `Tick` at most 119, a `Filter` at most
-//! 116, a `Health` at most 66 once a second and a `Hello` at most 34 every 5 s (the tests
-//! check each bound). That is at most 10 x (101 + 202 + 119 + 116) + 66 + 7 = 5,453
+//! 116, a `Health` at most 66 once a second and a `Hello` at most 37 every 5 s (the tests
+//! check each bound). That is at most 10 x (101 + 202 + 119 + 116) + 66 + 8 = 5,454
 //! bytes/s, and the whole map refreshes every 2.3 s. The firmware sends two chunks a
 //! tick: at most 6,463 bytes/s, 7.0 % of its 921,600 baud 8N1 UART (92,160 bytes/s), of
 //! which the inputs are 2,020 bytes/s (2.2 %). Without them (`inputs: false`) a run cannot
@@ -88,8 +88,8 @@ pub use core_layout::serialize_counters;
 pub use decode::{Frames, StreamDecoder};
 pub use health::SensorHealth;
 pub use message::{
-    CellChunk, FilterState, FirmwareVersion, Hello, Inputs, MapRows, Message, Tick, STALE_DEPTH,
-    STALE_FLOW, STALE_GYRO,
+    Boot, CellChunk, FilterState, FirmwareVersion, Hello, Inputs, MapRows, Message, ResetCause,
+    Tick, STALE_DEPTH, STALE_FLOW, STALE_GYRO,
 };
 pub use stream::{encode, EncodeError, Schedule, Streamer};
 
@@ -99,7 +99,7 @@ pub use stream::{encode, EncodeError, Schedule, Streamer};
 /// misreading them. Layout 2 added the start-up failure counts to `Health`; layout 3 the
 /// `TooOld` fix rejection and its counter to `Tick`; layout 4 the `Hello`'s localiser and
 /// the `Filter` message; layout 5 the `Inputs` message; layout 6 the doubted inputs and
-/// their counters to `Tick`.
+/// their counters to `Tick`, and the `Hello`'s boot (reset cause, resumed or not).
 pub const WIRE_VERSION: u8 = 0xB6;
 
 /// Most cells one [`MapRows`] carries: two rows of the seed's 46-cell grid fit, and the

@@ -1,7 +1,7 @@
 //! The sending side: which messages go out on each tick, and framing one into bytes.
 
 use super::{
-    CellChunk, CellScale, FilterState, FirmwareVersion, Hello, Inputs, MapRows, Message,
+    Boot, CellChunk, CellScale, FilterState, FirmwareVersion, Hello, Inputs, MapRows, Message,
     SensorHealth, Tick, MAX_CHUNK_CELLS, MAX_MESSAGE_LEN, MAX_RAW_LEN, WIRE_VERSION,
 };
 use crate::framing::{cobs_encode, cobs_len, crc16};
@@ -49,6 +49,7 @@ pub struct Streamer {
     schedule: Schedule,
     firmware: FirmwareVersion,
     localiser: Localiser,
+    boot: Boot,
     ticks_sent: u32,
     next_column: u16,
     next_row: u16,
@@ -66,10 +67,22 @@ impl Streamer {
             schedule,
             firmware,
             localiser,
+            boot: Boot {
+                cause: super::ResetCause::PowerOn,
+                resumed: false,
+                resumes: 0,
+            },
             ticks_sent: 0,
             next_column: 0,
             next_row: 0,
         }
+    }
+
+    /// The same stream from a run that started as `boot` says (a fresh start after
+    /// power-on unless told): every `Hello` carries it.
+    pub const fn with_boot(mut self, boot: Boot) -> Streamer {
+        self.boot = boot;
+        self
     }
 
     /// Hands `send` this tick's messages, in order: a `Hello` when due, the [`Inputs`]
@@ -96,6 +109,7 @@ impl Streamer {
                 map,
                 self.firmware,
                 self.localiser,
+                self.boot,
             )));
         }
         if self.schedule.inputs {

@@ -53,7 +53,9 @@ pub struct EmulateArgs {
     pub pose: Option<String>,
     /// SENSOR-KIND from S seconds on (`NAME@T+S`, or `NAME@T+S/D` for D seconds):
     /// SENSOR one of depth, flow, gyro, camera; KIND one of off, stuck, garbage, wrong,
-    /// slow, intermittent (and flow-no-surface); repeatable.
+    /// slow, intermittent (and flow-no-surface); or core0-hang (core 0 stops between two
+    /// ticks) or step-hang (inside a SLAM step) once at S seconds, until the watchdog
+    /// resets the chip; repeatable.
     #[arg(long = "fault", value_name = "NAME@T+S")]
     pub faults: Vec<String>,
     /// Run without host-sim: the robot stands still on a good surface.
