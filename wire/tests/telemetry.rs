@@ -832,6 +832,7 @@ fn every_hello_carries_the_boot_it_was_given() {
         cells_written: 0,
         counters: Counters::default(),
         estimate: None,
+        trust: Trust::default(),
     };
     let mut hellos = std::vec::Vec::new();
     for _ in 0..4 {
