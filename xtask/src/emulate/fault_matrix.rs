@@ -183,8 +183,14 @@ mod tests {
     #[test]
     fn cases_are_the_sensors_by_the_kinds() {
         assert_eq!(case_name("gyro-stuck").as_deref(), Ok("gyro-stuck"));
-        assert_eq!(case_name("camera-intermittent").as_deref(), Ok("camera-intermittent"));
+        assert_eq!(
+            case_name("camera-intermittent").as_deref(),
+            Ok("camera-intermittent")
+        );
         assert!(case_name("gyro-sideways").is_err());
-        assert!(case_name("depth-nack").is_err(), "the matrix names kinds as host-sim does");
+        assert!(
+            case_name("depth-nack").is_err(),
+            "the matrix names kinds as host-sim does"
+        );
     }
 }
