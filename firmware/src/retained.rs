@@ -106,7 +106,8 @@ struct Block {
     /// Resumes in a row that were reset again before [`PROVEN_TICKS`].
     unproven: u32,
     /// Where the map's cells lie in the block, in bytes from its start, and how many
-    /// there are: for a debugger (and the emulator's checks) to read the map.
+    /// there are: for a debugger (and the emulator's checks) to read the map. A cell is
+    /// one byte of log odds (the emulator's `retained.mjs` reads it so).
     map_at: u32,
     map_cells: u32,
     /// Where the route was at the last close.
@@ -119,6 +120,7 @@ struct Block {
 /// The first word the checksum covers, and how many.
 const SUMMED_FROM: usize = offset_of!(Block, resumes);
 const SUMMED_WORDS: usize = (size_of::<Block>() - SUMMED_FROM) / 4;
+const _: () = assert!(size_of::<slam_core::LogOdds>() == 1);
 const _: () = assert!(SUMMED_FROM.is_multiple_of(4) && size_of::<Block>().is_multiple_of(4));
 
 /// The block, in the section start-up leaves alone.

@@ -213,6 +213,17 @@ pub async fn slam_task(
     let mut ticker = Ticker::every(TICK);
     let mut deadline = Instant::now() + TICK;
     let mut previous = Instant::now();
+    // A resumed run was blind from the last close until now: the watchdog's timeout, then
+    // the boot. Its first frame spans that time with neither flow nor gyro (their first
+    // readings cover only the time since the boot), so that the filter widens the pose by the
+    // motion it may have missed and the tags in sight can pull it back.
+    let mut unseen_us = match start.fresh {
+        None => {
+            previous = Instant::from_ticks(0);
+            micros(WATCHDOG_TIMEOUT)
+        }
+        Some(_) => 0,
+    };
     let mut trust = slam_core::Trust::default();
 
     loop {
@@ -235,9 +246,12 @@ pub async fn slam_task(
         previous = started;
 
         // Each input: `None` (stale) unless its task published since the last tick.
-        let mut frame = SensorFrame::empty(dt_us);
+        let mut frame = SensorFrame::empty(dt_us.saturating_add(unseen_us));
         frame.flow = inputs.flow.take();
         frame.gyro = inputs.gyro.take();
+        if unseen_us > 0 {
+            (frame.flow, frame.gyro, unseen_us) = (None, None, 0);
+        }
         if let Some(reading) = inputs.depth.try_take() {
             frame.depth = Some(reading.scan);
             // The sensor ranges on its own 15 Hz clock: a scan is up to a frame old, and

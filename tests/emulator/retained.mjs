@@ -7,6 +7,7 @@ const SRAM_BASE = 0x20000000;
 const CLOSED = 12, RESUMES = 20, MAP_AT = 28, MAP_CELLS = 32, ROUTE = 36, STATE = 40;
 /// `closed` when the state is whole.
 const CLOSED_MAGIC = 0xc105ed00;
+// A map cell is one byte of log odds (`slam_core::grid::LogOdds`, `i8`).
 
 /// `{ read(rp), compare(before, after) }` for the block in `elf`, or null when the
 /// firmware has none.
@@ -19,8 +20,8 @@ export function retainedState(elf) {
     read(rp) {
       const word = (o) => rp.sramView.getUint32(base + o, true);
       const mapAt = word(MAP_AT), mapCells = word(MAP_CELLS);
-      const mapOk = mapAt >= STATE && mapAt + 2 * mapCells <= sym.size;
-      const map = mapOk ? Int16Array.from({ length: mapCells }, (_, i) => rp.sramView.getInt16(base + mapAt + 2 * i, true)) : null;
+      const mapOk = mapAt >= STATE && mapAt + mapCells <= sym.size;
+      const map = mapOk ? Int8Array.from({ length: mapCells }, (_, i) => rp.sramView.getInt8(base + mapAt + i)) : null;
       const route = word(ROUTE);
       return {
         closed: word(CLOSED) === CLOSED_MAGIC,

@@ -1,6 +1,11 @@
 //! What the filter is told about its sensors: their noise, the uncertainty it starts
 //! with, and how much disagreement it believes.
 
+/// The time the stale noises ([`EstimatorConfig::stale_flow_mm`],
+/// [`EstimatorConfig::stale_gyro_mdeg`]) are given for, microseconds: a tick of the 10 Hz
+/// loop.
+pub const STALE_PERIOD_US: u32 = 100_000;
+
 /// The filter's noise model and gate, in the units of datasheets.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -36,9 +41,12 @@ pub struct EstimatorConfig {
     pub gyro_scale_walk_ppm: u32,
     /// Random walk of the flow sensor's scale per tick, ppm.
     pub flow_scale_walk_ppm: u32,
-    /// Position noise of a tick with no flow reading, millimetres per axis.
+    /// Position noise of a [`STALE_PERIOD_US`] with no flow reading, millimetres per axis:
+    /// how far the robot may have gone unseen. A longer frame without one (the time a
+    /// watchdog reset left unseen) costs it in proportion.
     pub stale_flow_mm: u32,
-    /// Heading noise of a tick with no gyro reading, millidegrees.
+    /// Heading noise of a [`STALE_PERIOD_US`] with no gyro reading, millidegrees, in
+    /// proportion over a longer frame likewise.
     pub stale_gyro_mdeg: u32,
     /// The camera's range noise: a constant part, millimetres...
     pub range_noise_mm: u32,

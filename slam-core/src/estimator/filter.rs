@@ -1,6 +1,6 @@
 //! The filter's state and its prediction from odometry.
 
-use super::config::EstimatorConfig;
+use super::config::{self, EstimatorConfig};
 use super::covariance::{Covariance, Entry, N};
 use super::fixed::{mul_shift, square};
 use super::units::{self, FINE_SHIFT};
@@ -192,7 +192,7 @@ impl Estimator {
             push((State::Heading, State::GyroBias, q16(-dt)));
         }
         // The noise in 1/256 units, its fraction carried to the next tick.
-        let mut q = self.process_noise_q8(dx, dy, turn, flow, gyro);
+        let mut q = self.process_noise_q8(dx, dy, turn, dt_us, flow, gyro);
         for (q, carry) in q.iter_mut().zip(self.noise_carry.iter_mut()) {
             let total = q.saturating_add(i64::from(*carry));
             *carry = (total & 0xFF) as u8;
@@ -204,7 +204,15 @@ impl Estimator {
 
     /// The noise one tick adds, in covariance units times 2^8 (see [`NoiseParts`]): the
     /// parts that do not move with the tick's motion worked out once, at construction.
-    fn process_noise_q8(&self, dx: i64, dy: i64, turn: i64, flow: bool, gyro: bool) -> [i64; N] {
+    fn process_noise_q8(
+        &self,
+        dx: i64,
+        dy: i64,
+        turn: i64,
+        dt_us: u32,
+        flow: bool,
+        gyro: bool,
+    ) -> [i64; N] {
         let n = &self.noise;
         let turn = turn.abs();
         // A share of the distance or of the turn only when one is configured: the seed's
@@ -218,7 +226,7 @@ impl Estimator {
             };
             n.position + by_distance + noise_var(mul_shift(n.position_per_rad_q8, turn, 16))
         } else {
-            n.stale_position
+            stale_var(n.stale_position_q8, dt_us)
         };
         let heading = if gyro {
             let by_turn = if n.heading_ppm_q16 == 0 {
@@ -228,7 +236,7 @@ impl Estimator {
             };
             n.heading + by_turn
         } else {
-            n.stale_heading
+            stale_var(n.stale_heading_q8, dt_us)
         };
         let [gyro_scale, gyro_bias, flow_scale] = n.walks;
         [
@@ -285,6 +293,23 @@ impl Estimator {
     }
 }
 
+/// `2^32 / STALE_PERIOD_US`: a frame's time as a share of the stale noises' period, Q16,
+/// is its microseconds times this, shifted down 16 (a multiply rather than a division).
+const STALE_SHARE_PER_US_Q32: u64 = (1 << 32) / config::STALE_PERIOD_US as u64;
+
+/// The variance, in 1/256 units, of a stale input over `dt_us`: its deviation `sigma_q8`
+/// (per [`config::STALE_PERIOD_US`]) is a motion unseen, so it grows in proportion to the
+/// time. Out of line: it is for the rare stale tick, and inlined twice it costs flash.
+#[inline(never)]
+fn stale_var(sigma_q8: i64, dt_us: u32) -> i64 {
+    // A minute unseen is as good as any longer (the variances' ceiling is far below), and
+    // keeps the products small: the share under 2^26, a deviation (under 2^31) by it under
+    // 2^57.
+    let share_q16 = (u64::from(dt_us.min(60_000_000)) * STALE_SHARE_PER_US_Q32) >> 16;
+    let sigma = (sigma_q8.unsigned_abs().min(1 << 31) * share_q16) >> 16;
+    noise_var(sigma as i64)
+}
+
 /// A standard deviation in 1/256 units squared, in 1/256 units of variance.
 fn noise_var(sigma_q8: i64) -> i64 {
     square(sigma_q8) >> 8
@@ -301,14 +326,16 @@ struct NoiseParts {
     position_per_rad_q8: i64,
     /// The position noise's share of the distance, Q16.
     position_ppm_q16: i64,
-    /// A tick's position noise without flow.
-    stale_position: i64,
+    /// The position noise of a [`config::STALE_PERIOD_US`] without flow, as a standard
+    /// deviation in 1/256 units.
+    stale_position_q8: i64,
     /// A tick's own heading noise, with the gyro.
     heading: i64,
     /// The heading noise's share of the turn, Q16.
     heading_ppm_q16: i64,
-    /// A tick's heading noise without the gyro.
-    stale_heading: i64,
+    /// The heading noise of a [`config::STALE_PERIOD_US`] without the gyro, as a standard
+    /// deviation in 1/256 units.
+    stale_heading_q8: i64,
     /// The random walks of the gyro's scale and bias and of the flow's scale.
     walks: [i64; 3],
 }
@@ -324,10 +351,10 @@ impl NoiseParts {
             position: noise_var(position_q8(c.position_noise_um)),
             position_per_rad_q8: position_q8(c.position_noise_um_per_rad),
             position_ppm_q16: ppm_q16(c.position_noise_ppm),
-            stale_position: noise_var(position_q8(c.stale_flow_mm.saturating_mul(1000))),
+            stale_position_q8: position_q8(c.stale_flow_mm.saturating_mul(1000)),
             heading: noise_var(heading_q8(c.heading_noise_mdeg)),
             heading_ppm_q16: ppm_q16(c.heading_noise_ppm),
-            stale_heading: noise_var(heading_q8(c.stale_gyro_mdeg)),
+            stale_heading_q8: heading_q8(c.stale_gyro_mdeg),
             walks: [
                 noise_var(scale_q8(c.gyro_scale_walk_ppm)),
                 noise_var(bias_q8(c.gyro_bias_walk_udps)),
@@ -362,4 +389,42 @@ impl SightingNoise {
 /// Parts per million as a Q16 fraction.
 fn ppm_q16(ppm: u32) -> i64 {
     units::scale_from_ppm(i64::from(ppm))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The heading's and x's variances after one still frame of `dt_us` with neither input.
+    fn after_unseen(dt_us: u32) -> (i64, i64) {
+        let mut e = Estimator::new(EstimatorConfig::SEED);
+        let (h0, x0) = (
+            e.p.get(State::Heading, State::Heading),
+            e.p.get(State::X, State::X),
+        );
+        let still = Pose::default();
+        e.predict(
+            &still,
+            &still,
+            &Motion::default(),
+            dt_us,
+            Known::Lost,
+            Known::Lost,
+        );
+        (
+            e.p.get(State::Heading, State::Heading) - h0,
+            e.p.get(State::X, State::X) - x0,
+        )
+    }
+
+    #[test]
+    fn time_unseen_costs_deviation_in_proportion() {
+        let (heading, x) = after_unseen(config::STALE_PERIOD_US);
+        assert!(heading > 0 && x > 0);
+        // Six times the time unseen (a watchdog reset's), six times the deviation.
+        let (heading6, x6) = after_unseen(6 * config::STALE_PERIOD_US);
+        let near = |got: i64, want: i64| (got - want).abs() * 50 <= want;
+        assert!(near(heading6, 36 * heading), "{heading6} vs 36 x {heading}");
+        assert!(near(x6, 36 * x), "{x6} vs 36 x {x}");
+    }
 }

@@ -16,6 +16,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::{heading_of, nose, right, wrap, CENTRE_PX, FOCAL_PX};
+use slam_core::estimator::config::STALE_PERIOD_US;
 use slam_core::history::HISTORY_LEN;
 use slam_core::{EstimatorConfig, OdometryConfig, SensorFrame, TagMap};
 
@@ -137,9 +138,9 @@ pub struct TickMotion {
 /// on the chord's direction through the calibration is second order and left out.
 ///
 /// The noise: per axis, the flow's own noise, a share of the distance and a length per
-/// radian turned (a stale flow reading instead costs its own larger figure); on the heading,
-/// the gyro's noise and a share of the angle turned (or the stale figure); a random walk on
-/// each calibration state.
+/// radian turned (a stale flow reading instead costs its own larger figure, in proportion
+/// to the frame's time); on the heading, the gyro's noise and a share of the angle turned
+/// (or the stale figure, likewise); a random walk on each calibration state.
 pub fn predict(p: &mut Matrix, c: &EstimatorConfig, m: &TickMotion) {
     let mut f = diagonal([1.0; N]);
     f[X][HEADING] = m.dy;
@@ -155,17 +156,19 @@ pub fn predict(p: &mut Matrix, c: &EstimatorConfig, m: &TickMotion) {
     *p = mul(&mul(&f, p), &transpose(&f));
     let distance = m.dx.hypot(m.dy);
     let turn = m.turn.abs();
+    // A stale input's deviation grows with the time unseen.
+    let stale = m.dt * 1e6 / f64::from(STALE_PERIOD_US);
     let position = if m.flow {
         (c.position_noise_um as f64 / 1000.0).powi(2)
             + (distance * ppm(c.position_noise_ppm)).powi(2)
             + (c.position_noise_um_per_rad as f64 / 1000.0 * turn).powi(2)
     } else {
-        (c.stale_flow_mm as f64).powi(2)
+        (c.stale_flow_mm as f64 * stale).powi(2)
     };
     let heading = if m.gyro {
         mdeg(c.heading_noise_mdeg).powi(2) + (turn * ppm(c.heading_noise_ppm)).powi(2)
     } else {
-        mdeg(c.stale_gyro_mdeg).powi(2)
+        (mdeg(c.stale_gyro_mdeg) * stale).powi(2)
     };
     let q = [
         position,
