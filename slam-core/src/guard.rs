@@ -309,47 +309,32 @@ mod tests {
     fn a_wall_ahead_stops_within_the_safe_distance_and_not_beyond() {
         let map = empty_map();
         let safe = i64::from(CONFIG.safe_distance_mm(86));
-        for distance in [20, 60, 90, safe - 1] {
-            let decision = decide(
+        let ahead_at = |distance: i64, command: DriveCommand| {
+            decide(
                 &CONFIG,
                 &POSE,
                 &map,
                 Some(&wall_ahead(distance)),
                 &TRUSTED,
-                AHEAD,
-            );
+                command,
+            )
+        };
+        for distance in [20, 60, 90, safe - 1] {
             assert!(
-                matches!(decision, Decision::Stop(Obstacle::Beam(_))),
+                matches!(ahead_at(distance, AHEAD), Decision::Stop(Obstacle::Beam(_))),
                 "{distance}"
             );
         }
         for distance in [safe + 1, 150, 400, 2000] {
-            let decision = decide(
-                &CONFIG,
-                &POSE,
-                &map,
-                Some(&wall_ahead(distance)),
-                &TRUSTED,
-                AHEAD,
-            );
-            assert_eq!(decision, Decision::Go, "{distance}");
+            assert_eq!(ahead_at(distance, AHEAD), Decision::Go, "{distance}");
         }
         // Faster, a wall beyond the safe distance at 86 mm/s is inside it (145 mm at 300).
-        assert!(decide(
-            &CONFIG,
-            &POSE,
-            &map,
-            Some(&wall_ahead(140)),
-            &TRUSTED,
-            AHEAD
-        )
-        .is_go());
+        assert!(ahead_at(140, AHEAD).is_go());
         let fast = DriveCommand {
             speed_mm_s: 300,
             ..AHEAD
         };
-        let decision = decide(&CONFIG, &POSE, &map, Some(&wall_ahead(140)), &TRUSTED, fast);
-        assert!(!decision.is_go());
+        assert!(!ahead_at(140, fast).is_go());
     }
 
     #[test]
