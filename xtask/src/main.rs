@@ -38,6 +38,9 @@ enum Task {
     Emulate(EmulateArgs),
     /// Every sensor failing every way on the emulated robot (24 runs), one row each.
     EmulateFaults(emulate::fault_matrix::FaultMatrixArgs),
+    /// The firmware built for each shipped world and flown through its whole route,
+    /// beside host-sim's run of it.
+    EmulateWorlds(emulate::worlds::WorldsArgs),
     /// The simulator's and the firmware's speed figures.
     Bench(BenchArgs),
     /// Check that every external program the tests call is installed, and name the
@@ -61,6 +64,7 @@ fn main() -> ExitCode {
         Task::Firmware(args) => firmware::run(args),
         Task::Emulate(args) => emulate::run(args),
         Task::EmulateFaults(args) => emulate::fault_matrix::run(args),
+        Task::EmulateWorlds(args) => emulate::worlds::run(args),
         Task::Bench(args) => bench(args),
         Task::Tools => tools::check_all(),
     };

@@ -233,7 +233,7 @@ fn usb_checks(f: &serde_json::Value) -> [(String, bool); 2] {
 const ROUTE_SECONDS: &str = "52";
 const ROUTE_SECONDS_F: f64 = 52.0;
 /// The noise seed of both runs compared in [`route_run`].
-const ROUTE_SEED: &str = "1";
+pub const ROUTE_SEED: &str = "1";
 
 /// How close an emulated figure must come to the simulator's.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -291,7 +291,7 @@ pub const EMULATED_INSIDE_PCT: f64 = 85.0;
 
 /// `host-sim run`'s figures for `scenario` (relative to the workspace) on the route's seed,
 /// in the pose mode the firmware flies: the filter, or else the two-tag fix.
-fn host_sim_run(scenario: &str, filter: bool) -> Result<serde_json::Value, String> {
+pub fn host_sim_run(scenario: &str, filter: bool) -> Result<serde_json::Value, String> {
     let pose = if filter { "filter" } else { "tags" };
     let mut run = Command::new(host_sim_binary());
     run.arg("run")
@@ -403,10 +403,9 @@ pub fn route_run() -> Result<(u64, u64), String> {
 }
 
 /// The shipped room CI flies: a 3 m x 2 m room with a box and a tag on each of two
-/// walls. Of the shipped rooms it is the one whose route takes least wall time while
-/// its firmware fits the RAM budget (room-10m's is shorter but its 206 x 206 grid does
-/// not fit 96 KB), it has tags for the filter to use, and its grid (66 x 46) is not the
-/// seed's nor square, so the world's own grid size is what flies.
+/// walls. Of the shipped rooms it is the one whose route takes least wall time while it
+/// has tags for the filter to use, and its grid (66 x 46) is not the seed's nor square, so
+/// the world's own grid size is what flies. `cargo xtask emulate-worlds` flies the others.
 pub const ROOM: &str = "host-sim/scenarios/two-wall-room.toml";
 /// Simulated seconds for the room's whole route: 92 s of route after the gyro's
 /// calibration, and time for the last tick's telemetry to get out.
@@ -414,20 +413,64 @@ const ROOM_SECONDS: &str = "96";
 const ROOM_SECONDS_F: f64 = 96.0;
 
 /// The firmware built for [`ROOM`] flying its route on the emulated RP2040, against
-/// `host-sim run ROOM` on the same seed with the pose mode the firmware flies: the
-/// stream replays bit for bit (in the cells both grids hold: host-sim maps into its
-/// built-in square from the same origin), no overrun, and the filter's figures within
-/// the bounds [`route_run`] holds the seed to. The maps are compared by their cells out
-/// of place and by their known shares of the room's floor (the same cells on either grid,
-/// though the simulator's is larger). Prints each check; returns (passed, failed).
+/// `host-sim run ROOM` on the same seed with the pose mode the firmware flies:
+/// [`world_checks`], and the final error and the error after the first fix within 2 cm,
+/// the bounds [`route_run`] holds the seed to. Prints each check; returns (passed,
+/// failed).
 pub fn room_run() -> Result<(u64, u64), String> {
     let f = crate::emulator_figures(&[ROOM, "--seconds", ROOM_SECONDS, "--seed", ROUTE_SEED])?;
     let filter = f["view"]["localiser"].as_str() == Some("filter");
     let sim = host_sim_run(ROOM, filter)?;
+    let v = &f["view"];
+    let num = |x: &serde_json::Value| x.as_f64().unwrap_or(f64::NAN);
+    let mut checks = world_checks(&f, &sim, ROOM_SECONDS_F);
+    checks.extend([
+        (
+            format!(
+                "final error <= 2 cm: emulator {:.2} cm, host-sim {:.2} cm",
+                num(&v["final_error_cm"]),
+                num(&sim["final_error_cm"])
+            ),
+            num(&v["final_error_cm"]) <= 2.0 && num(&sim["final_error_cm"]) <= 2.0,
+        ),
+        (
+            format!(
+                "error after the first fix <= 2 cm: emulator {:.2} cm, host-sim {:.2} cm",
+                num(&v["max_error_after_first_fix_cm"]),
+                num(&sim["max_error_after_first_fix_cm"])
+            ),
+            num(&v["max_error_after_first_fix_cm"]) <= 2.0,
+        ),
+    ]);
+    Ok(print_checks("emulator room", &checks))
+}
+
+/// Prints each check under `label`; returns (passed, failed).
+pub fn print_checks(label: &str, checks: &[(String, bool)]) -> (u64, u64) {
+    let mut passed = 0;
+    for (what, ok) in checks {
+        println!("{label}: {} {what}", if *ok { "ok    " } else { "FAILED" });
+        passed += u64::from(*ok);
+    }
+    (passed, checks.len() as u64 - passed)
+}
+
+/// What any world's flight is held to, its figures `f` (from `cargo xtask emulate --json`
+/// over `seconds`) against `host-sim run`'s `sim` of the same world and seed: 0 collisions,
+/// 10 Hz kept with no overrun or reset, the stream replayed bit for bit (in the cells
+/// both grids hold: host-sim maps into its built-in square from the same origin), every
+/// tick decoded and scored, the maps alike (cells out of place, and the known share of the
+/// room's floor: the same cells on either grid) and, with the filter, its 3-sigma bound
+/// holding and the tags used alike.
+pub fn world_checks(
+    f: &serde_json::Value,
+    sim: &serde_json::Value,
+    seconds: f64,
+) -> Vec<(String, bool)> {
     let (e, v) = (&f["emulator"], &f["view"]);
     let num = |x: &serde_json::Value| x.as_f64().unwrap_or(f64::NAN);
-    let mut checks = timing_checks(e, v, ROOM_SECONDS_F);
-    checks.push(replay_check(&f));
+    let mut checks = timing_checks(e, v, seconds);
+    checks.push(replay_check(f));
     checks.extend([
         (
             "telemetry decoded without a bad frame".into(),
@@ -450,22 +493,6 @@ pub fn room_run() -> Result<(u64, u64), String> {
         ),
         (
             format!(
-                "final error <= 2 cm: emulator {:.2} cm, host-sim {:.2} cm",
-                num(&v["final_error_cm"]),
-                num(&sim["final_error_cm"])
-            ),
-            num(&v["final_error_cm"]) <= 2.0 && num(&sim["final_error_cm"]) <= 2.0,
-        ),
-        (
-            format!(
-                "error after the first fix <= 2 cm: emulator {:.2} cm, host-sim {:.2} cm",
-                num(&v["max_error_after_first_fix_cm"]),
-                num(&sim["max_error_after_first_fix_cm"])
-            ),
-            num(&v["max_error_after_first_fix_cm"]) <= 2.0,
-        ),
-        (
-            format!(
                 "known share of the room's floor within 10 points of host-sim's: emulator {:.1} %, host-sim {:.1} %",
                 num(&v["known_pct"]),
                 num(&sim["known_pct"])
@@ -477,7 +504,7 @@ pub fn room_run() -> Result<(u64, u64), String> {
             ),
         ),
     ]);
-    if filter {
+    if v["localiser"].as_str() == Some("filter") {
         let (ve, se) = (&v["estimator"], &sim["estimator"]);
         let (used_e, used_s) = (num(&ve["tags"]["used"]), num(&se["tags"]["used"]));
         checks.extend([
@@ -496,15 +523,7 @@ pub fn room_run() -> Result<(u64, u64), String> {
             ),
         ]);
     }
-    let mut passed = 0;
-    for (what, ok) in &checks {
-        println!(
-            "emulator room: {} {what}",
-            if *ok { "ok    " } else { "FAILED" }
-        );
-        passed += u64::from(*ok);
-    }
-    Ok((passed, checks.len() as u64 - passed))
+    checks
 }
 
 /// Simulated seconds for the reset run: the whole seed route, the watchdog's 0.5 s, the

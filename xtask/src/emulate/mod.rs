@@ -25,6 +25,7 @@ pub mod fault_matrix;
 pub mod progress;
 pub mod self_tests;
 pub mod usb_stream;
+pub mod worlds;
 
 use std::os::fd::AsFd;
 use std::path::{Path, PathBuf};

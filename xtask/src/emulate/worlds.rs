@@ -1,0 +1,210 @@
+//! `cargo xtask emulate-worlds`: the firmware built for each shipped world and flown
+//! through that world's whole route on the emulated RP2040, held against `host-sim run`
+//! of the same world and seed with the pose mode the firmware flies.
+//!
+//! CI flies the seed mat and one room (`cargo xtask test`); this flies every world, one
+//! after the other (each needs its own firmware build), a few minutes of wall time for
+//! each minute of route.
+
+use std::path::{Path, PathBuf};
+
+use super::checks::{self, host_sim_run, print_checks, world_checks};
+
+/// The worlds flown without `--world`: every scenario shipped.
+const SCENARIOS: &str = "host-sim/scenarios";
+/// Simulated seconds past the route's end: the gyro's calibration before it starts, and
+/// time for the last tick's telemetry to get out.
+const AFTER_ROUTE_S: f64 = 4.0;
+
+/// `cargo xtask emulate-worlds`'s options.
+#[derive(clap::Args, Debug)]
+pub struct WorldsArgs {
+    /// Only these scenario files (repeatable); every one in host-sim/scenarios without it.
+    #[arg(long = "world", value_name = "FILE")]
+    worlds: Vec<PathBuf>,
+}
+
+/// Flies each world, prints its checks and a table, and fails if any check failed.
+pub fn run(args: &WorldsArgs) -> Result<(), String> {
+    let worlds = if args.worlds.is_empty() {
+        shipped()?
+    } else {
+        args.worlds.clone()
+    };
+    let mut rows = Vec::new();
+    for world in &worlds {
+        rows.push(fly(world)?);
+    }
+    println!();
+    println!(
+        "{:<18} {:>7} {:>6} {:>9} {:>10} {:>14} {:>18} {:>9} {:>7}",
+        "world",
+        "route s",
+        "ticks",
+        "overruns",
+        "collisions",
+        "error cm (sim)",
+        "out of place (sim)",
+        "max step",
+        "checks"
+    );
+    for r in &rows {
+        println!("{r}");
+    }
+    let failed: u64 = rows.iter().map(|r| r.failed).sum();
+    if failed > 0 {
+        return Err(format!("{failed} checks failed"));
+    }
+    Ok(())
+}
+
+/// Every `.toml` under [`SCENARIOS`], by name.
+fn shipped() -> Result<Vec<PathBuf>, String> {
+    let dir = crate::workspace_root().join(SCENARIOS);
+    let entries =
+        std::fs::read_dir(&dir).map_err(|e| format!("cannot list {}: {e}", dir.display()))?;
+    let mut worlds: Vec<PathBuf> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+        .collect();
+    worlds.sort();
+    Ok(worlds)
+}
+
+/// One world's flight, as the table shows it.
+struct Row {
+    name: String,
+    route_s: f64,
+    ticks: f64,
+    overruns: f64,
+    collisions: f64,
+    error_cm: (f64, f64),
+    out_of_place: (f64, f64),
+    max_step_cycles: f64,
+    passed: u64,
+    failed: u64,
+}
+
+impl std::fmt::Display for Row {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{:<18} {:>7.1} {:>6} {:>9} {:>10} {:>14} {:>18} {:>9} {:>7}",
+            self.name,
+            self.route_s,
+            self.ticks,
+            self.overruns,
+            self.collisions,
+            format!("{:.2} ({:.2})", self.error_cm.0, self.error_cm.1),
+            format!("{} ({})", self.out_of_place.0, self.out_of_place.1),
+            self.max_step_cycles,
+            format!("{}/{}", self.passed, self.passed + self.failed)
+        )
+    }
+}
+
+/// Runs `host-sim run` for the route's length, then the emulator for as long and a little
+/// more, and checks the one against the other.
+fn fly(world: &Path) -> Result<Row, String> {
+    let name = world.file_stem().map_or_else(
+        || world.display().to_string(),
+        |s| s.to_string_lossy().into_owned(),
+    );
+    let scenario = world.to_string_lossy();
+    // The firmware flies the filter; host-sim is asked for the same once the emulator
+    // says so, but the route's length is the same in any mode.
+    let route = host_sim_run(&scenario, true)?;
+    let num = |x: &serde_json::Value| x.as_f64().unwrap_or(f64::NAN);
+    let route_s = num(&route["duration_s"]);
+    if !route_s.is_finite() || route_s <= 0.0 {
+        return Err(format!("host-sim gave {name} no route length"));
+    }
+    let seconds = (route_s + AFTER_ROUTE_S).ceil();
+    println!("emulate-worlds: {name}: {route_s:.1} s of route, flying {seconds} s");
+    let f = crate::emulator_figures(&[
+        &scenario,
+        "--seconds",
+        &seconds.to_string(),
+        "--seed",
+        checks::ROUTE_SEED,
+    ])?;
+    let v = &f["view"];
+    let sim = if v["localiser"].as_str() == Some("filter") {
+        route
+    } else {
+        host_sim_run(&scenario, false)?
+    };
+    let mut all = world_checks(&f, &sim, seconds);
+    all.extend(error_checks(v, &sim));
+    let (passed, failed) = print_checks(&format!("emulator {name}"), &all);
+    Ok(Row {
+        name,
+        route_s,
+        ticks: num(&v["ticks"]),
+        overruns: num(&f["emulator"]["overruns"]),
+        collisions: num(&f["emulator"]["truth"]["collisions"]),
+        error_cm: (num(&v["final_error_cm"]), num(&sim["final_error_cm"])),
+        out_of_place: (num(&v["out_of_place"]), num(&sim["out_of_place"])),
+        max_step_cycles: num(&f["emulator"]["step_cycles_max"]),
+        passed,
+        failed,
+    })
+}
+
+/// The pose held to host-sim's bounds: the emulator's final error, and its largest after
+/// the first tag fix (where there was one), no worse than host-sim's by more than 2 cm or
+/// a quarter of it, whichever is more (the two runs' sensors differ in their timing, so
+/// odometry without tags drifts apart).
+fn error_checks(v: &serde_json::Value, sim: &serde_json::Value) -> Vec<(String, bool)> {
+    let num = |x: &serde_json::Value| x.as_f64().unwrap_or(f64::NAN);
+    let no_worse =
+        |emulated: f64, simulated: f64| emulated <= simulated + (simulated * 0.25).max(2.0);
+    let mut checks = vec![{
+        let (e, s) = (num(&v["final_error_cm"]), num(&sim["final_error_cm"]));
+        (
+            format!("final error no worse than host-sim's by 2 cm or 25 %: emulator {e:.2} cm, host-sim {s:.2} cm"),
+            no_worse(e, s),
+        )
+    }];
+    let key = "max_error_after_first_fix_cm";
+    if !sim[key].is_null() || !v[key].is_null() {
+        let (e, s) = (num(&v[key]), num(&sim[key]));
+        checks.push((
+            format!("error after the first fix no worse than host-sim's by 2 cm or 25 %: emulator {e:.2} cm, host-sim {s:.2} cm"),
+            no_worse(e, s),
+        ));
+    }
+    checks
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    fn passes(emulated: f64, simulated: f64) -> bool {
+        let v = json!({ "final_error_cm": emulated, "max_error_after_first_fix_cm": null });
+        let sim = json!({ "final_error_cm": simulated, "max_error_after_first_fix_cm": null });
+        let checks = error_checks(&v, &sim);
+        assert_eq!(checks.len(), 1, "no fix, no check after it");
+        checks[0].1
+    }
+
+    #[test]
+    fn the_error_may_be_worse_by_two_centimetres_or_a_quarter() {
+        assert!(passes(2.9, 1.0) && !passes(3.1, 1.0));
+        assert!(passes(24.9, 20.0) && !passes(25.1, 20.0));
+        // Better than the simulator is never a failure; a missing figure always is.
+        assert!(passes(0.1, 20.0));
+        assert!(!passes(f64::NAN, 1.0));
+    }
+
+    #[test]
+    fn a_fix_on_either_side_adds_its_check() {
+        let v = json!({ "final_error_cm": 1.0, "max_error_after_first_fix_cm": 9.0 });
+        let sim = json!({ "final_error_cm": 1.0, "max_error_after_first_fix_cm": 1.0 });
+        let checks = error_checks(&v, &sim);
+        assert_eq!(checks.len(), 2);
+        assert!(checks[0].1 && !checks[1].1);
+    }
+}
