@@ -117,7 +117,30 @@ pub struct GridMap<const W: usize, const H: usize> {
     pub(super) evidence: Evidence,
     /// Divides by the cell size without dividing, for every beam's cells.
     pub(super) divider: CellDivider,
+    /// Each cell value after one more beam passed through it, indexed by the value's byte:
+    /// the beam walk looks a cell's next value up, for any evidence, in one load and one
+    /// register (an add and a clamp by values would take two of the M0+'s few).
+    pub(super) after_miss: [LogOdds; 256],
     pub(super) cells: [[LogOdds; W]; H],
+}
+
+/// [`GridMap::after_miss`] for `evidence`: each byte's cell plus the miss, within the clamp.
+const fn after_miss(evidence: &Evidence) -> [LogOdds; 256] {
+    let (miss, clamp) = (evidence.miss as i32, evidence.clamp as i32);
+    let mut table = [0; 256];
+    let mut byte = 0;
+    while byte < 256 {
+        let next = byte as u8 as LogOdds as i32 + miss;
+        table[byte] = if next < -clamp {
+            -clamp
+        } else if next > clamp {
+            clamp
+        } else {
+            next
+        } as LogOdds;
+        byte += 1;
+    }
+    table
 }
 
 impl<const W: usize, const H: usize> GridMap<W, H> {
@@ -132,6 +155,7 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
             geometry,
             evidence,
             divider: CellDivider::new(geometry.cell_mm as i64),
+            after_miss: after_miss(&evidence),
             cells: [[0; W]; H],
         }
     }

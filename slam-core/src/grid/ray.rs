@@ -3,7 +3,7 @@
 //! A beam from inside the grid and shorter than [`SHORT_WALK_MM`] takes a specialised loop
 //! (`free_ray` and `free_walk`); anything else takes the general walk (`mark_free`).
 
-use super::map::{Evidence, GridMap, LogOdds};
+use super::map::{GridMap, LogOdds};
 use super::walk::{CellWalk, Walk, WalkInt, SHORT_WALK_MM};
 
 impl<const W: usize, const H: usize> GridMap<W, H> {
@@ -93,8 +93,7 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
     /// difference rule; `advance` also counts boundaries per axis only to end a segment
     /// that stops exactly on a cell corner in its own cell. Such a walk, a spared cell
     /// anywhere but the end (a beam's hit cell is further along the same ray, so it is on
-    /// the walk only as its end cell), or evidence other than the seed's, is left to
-    /// `mark_free`.
+    /// the walk only as its end cell), is left to `mark_free`.
     #[inline(always)]
     fn free_ray(
         &mut self,
@@ -111,11 +110,7 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
         let spared_on_the_way = !spare_end
             && spared.is_some_and(|(c, r)| between(c, o.column, column) && between(r, o.row, row));
         let on_corner = column * cell == end.0 && row * cell == end.1;
-        // Other evidence than the seed's takes the general walk: a copy of the loops for
-        // it would be flash the robot (which maps with the seed's) never runs.
-        let seed = (self.evidence.miss, self.evidence.clamp)
-            == (Evidence::SEED.miss, Evidence::SEED.clamp);
-        if on_corner || spared_on_the_way || !seed {
+        if on_corner || spared_on_the_way {
             return None;
         }
         let (columns, rows) = (column.abs_diff(o.column), row.abs_diff(o.row));
@@ -142,25 +137,24 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
         let at = o.row as usize * W + o.column as usize;
         let count = 1 + columns + rows - u32::from(spare_end);
         let direction = (dx > 0, dy > 0);
-        self.free_walk_in_direction(direction, at, steps, count, SeedMiss);
+        self.free_walk_in_direction(direction, at, steps, count);
         Some(count)
     }
 
     /// [`GridMap::free_walk`] for the walk's direction: right, up.
     #[inline(always)]
-    fn free_walk_in_direction<M: Miss>(
+    fn free_walk_in_direction(
         &mut self,
         direction: (bool, bool),
         at: usize,
         steps: Steps,
         count: u32,
-        miss: M,
     ) {
         match direction {
-            (true, true) => self.free_walk::<true, true, M>(at, steps, count, miss),
-            (true, false) => self.free_walk::<true, false, M>(at, steps, count, miss),
-            (false, true) => self.free_walk::<false, true, M>(at, steps, count, miss),
-            (false, false) => self.free_walk::<false, false, M>(at, steps, count, miss),
+            (true, true) => self.free_walk::<true, true>(at, steps, count),
+            (true, false) => self.free_walk::<true, false>(at, steps, count),
+            (false, true) => self.free_walk::<false, true>(at, steps, count),
+            (false, false) => self.free_walk::<false, false>(at, steps, count),
         }
     }
 
@@ -169,15 +163,15 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
     /// M0+'s registers. Each step is looked up by the difference's sign bit, which the M0+
     /// does in fewer cycles than the compare-and-select the compiler makes of an `if`.
     #[inline(never)]
-    fn free_walk<const RIGHT: bool, const UP: bool, M: Miss>(
+    fn free_walk<const RIGHT: bool, const UP: bool>(
         &mut self,
         mut at: usize,
         steps: Steps,
         count: u32,
-        miss: M,
     ) {
         let column_step: isize = if RIGHT { 1 } else { -1 };
         let row_step: isize = if UP { W as isize } else { -(W as isize) };
+        let after_miss = &self.after_miss;
         let cells = self.cells.as_flattened_mut();
         let Steps {
             mut diff,
@@ -190,7 +184,7 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
         ];
         for _ in 0..count {
             if let Some(cell) = cells.get_mut(at) {
-                *cell = miss.apply(*cell);
+                *cell = after_miss[*cell as u8 as usize];
             }
             // One step past the last cell is computed and never used.
             let (d, step) = by_sign[(diff as u32 >> 31) as usize];
@@ -356,28 +350,6 @@ struct OriginCell {
     down: i32,
 }
 
-/// What a beam passing through does to a cell, for [`GridMap::free_walk`].
-///
-/// Cells never exceed the clamp, so a negative miss needs only the floor.
-trait Miss: Copy {
-    /// The cell after one more beam passed through it.
-    fn apply(self, cell: LogOdds) -> LogOdds;
-}
-
-/// The seed's evidence, as constants: the Cortex-M0+ then keeps them in its instructions,
-/// not in two of its eight registers.
-#[derive(Clone, Copy)]
-struct SeedMiss;
-
-impl Miss for SeedMiss {
-    #[inline(always)]
-    fn apply(self, cell: LogOdds) -> LogOdds {
-        const MISS: i32 = Evidence::SEED.miss as i32;
-        const FLOOR: i32 = -(Evidence::SEED.clamp as i32);
-        (i32::from(cell) + MISS).max(FLOOR) as LogOdds
-    }
-}
-
 /// A 32-bit walk's difference rule, as [`GridMap::free_walk`] takes it.
 #[derive(Clone, Copy)]
 struct Steps {
@@ -389,24 +361,44 @@ struct Steps {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::grid::GridMap;
     use crate::grid::TEST_GEOMETRY as GEO;
+    use crate::grid::{Evidence, GridMap};
+
+    /// Evidence other than the seed's, whose third miss in a cell reaches the floor.
+    const OTHER: Evidence = Evidence {
+        hit: 50,
+        miss: -45,
+        clamp: 100,
+        free_below: 10,
+        occupied_above: 10,
+    };
 
     /// Writes one beam three times into a fresh grid by `insert_beam` and into another
     /// by the plain iterator, cell by cell, and checks counts and cells agree.
     fn assert_beam_as_plain(from: (i32, i32), free_end: (i32, i32), to: (i32, i32), hit: bool) {
-        let mut fast: GridMap<46, 46> = GridMap::new(GEO, Evidence::SEED);
-        let mut plain: GridMap<46, 46> = GridMap::new(GEO, Evidence::SEED);
+        assert_beam_as_plain_with(Evidence::SEED, from, free_end, to, hit);
+    }
+
+    /// [`assert_beam_as_plain`] with `evidence`.
+    fn assert_beam_as_plain_with(
+        evidence: Evidence,
+        from: (i32, i32),
+        free_end: (i32, i32),
+        to: (i32, i32),
+        hit: bool,
+    ) {
+        let mut fast: GridMap<46, 46> = GridMap::new(GEO, evidence);
+        let mut plain: GridMap<46, 46> = GridMap::new(GEO, evidence);
         for _ in 0..3 {
             let n = fast.insert_beam(from, free_end, to, hit);
             let hit_cell = GEO.cell_of(to.0, to.1);
             let mut m = 0;
             for (c, r) in CellWalk::new(&GEO, from, free_end) {
-                if !(hit && (c, r) == hit_cell) && plain.add(c, r, Evidence::SEED.miss) {
+                if !(hit && (c, r) == hit_cell) && plain.add(c, r, evidence.miss) {
                     m += 1;
                 }
             }
-            if hit && plain.add(hit_cell.0, hit_cell.1, Evidence::SEED.hit) {
+            if hit && plain.add(hit_cell.0, hit_cell.1, evidence.hit) {
                 m += 1;
             }
             assert_eq!(n, m, "{from:?} -> {free_end:?} / {to:?}");
@@ -421,23 +413,44 @@ mod tests {
     #[test]
     fn beams_write_exactly_the_cells_their_walk_visits() {
         // The specialised loops against the plain one: every walk cell free (bar the hit
-        // cell), in or partly out of the grid, from a fixed pseudo-random sequence.
-        let mut rng = crate::lcg::Lcg::new(0x9e37_79b9_7f4a_7c15_u64);
-        let mut next = |span: i32| rng.within(i64::from(span)) as i32;
-        for _ in 0..3_000 {
-            let from = (next(1_400) + 850, next(1_400) + 850);
-            let to = (from.0 + next(2_500), from.1 + next(2_500));
-            // A hit cell anywhere near the end, on the walk or off it.
-            let free_end = (to.0 - next(60), to.1 - next(60));
-            assert_beam_as_plain(from, free_end, to, next(1) >= 0);
-            // As a beam casts it: the free end a cell short along the same ray.
-            let (dx, dy) = (to.0 - from.0, to.1 - from.1);
-            let length = (((dx as i64).pow(2) + (dy as i64).pow(2)) as f64)
-                .sqrt()
-                .max(1.0);
-            let short = |d: i32| d - (d as f64 * 50.0 / length) as i32;
-            let free_end = (from.0 + short(dx), from.1 + short(dy));
-            assert_beam_as_plain(from, free_end, to, next(1) >= 0);
+        // cell), in or partly out of the grid, from a fixed pseudo-random sequence, with the
+        // seed's evidence and with other evidence.
+        for evidence in [Evidence::SEED, OTHER] {
+            let mut rng = crate::lcg::Lcg::new(0x9e37_79b9_7f4a_7c15_u64);
+            let mut next = |span: i32| rng.within(i64::from(span)) as i32;
+            for _ in 0..3_000 {
+                let from = (next(1_400) + 850, next(1_400) + 850);
+                let to = (from.0 + next(2_500), from.1 + next(2_500));
+                // A hit cell anywhere near the end, on the walk or off it.
+                let free_end = (to.0 - next(60), to.1 - next(60));
+                assert_beam_as_plain_with(evidence, from, free_end, to, next(1) >= 0);
+                // As a beam casts it: the free end a cell short along the same ray.
+                let (dx, dy) = (to.0 - from.0, to.1 - from.1);
+                let length = (((dx as i64).pow(2) + (dy as i64).pow(2)) as f64)
+                    .sqrt()
+                    .max(1.0);
+                let short = |d: i32| d - (d as f64 * 50.0 / length) as i32;
+                let free_end = (from.0 + short(dx), from.1 + short(dy));
+                assert_beam_as_plain_with(evidence, from, free_end, to, next(1) >= 0);
+            }
+        }
+    }
+
+    #[test]
+    fn the_fast_walk_takes_any_evidence() {
+        // A short beam from inside the grid, off every corner, with evidence other than the
+        // seed's: the specialised loop writes it (not the general walk), down to the floor.
+        let mut g: GridMap<46, 46> = GridMap::new(GEO, OTHER);
+        let origin = g.beam_origin((712, 533));
+        let o = origin.cell.expect("the sensor's cell is in the grid");
+        let end = (o.x + 310, o.y + 170);
+        let end_cell = (end.0 / GEO.cell_mm, end.1 / GEO.cell_mm);
+        for pass in 1..=3 {
+            let written = g.free_ray(&o, end, end_cell, None);
+            assert_eq!(written, Some(1 + 6 + 4), "pass {pass}");
+            let floor = (pass * OTHER.miss as i32).max(-(OTHER.clamp as i32));
+            assert_eq!(g.log_odds(end_cell.0, end_cell.1), Some(floor as LogOdds));
+            assert_eq!(g.log_odds(o.column, o.row), Some(floor as LogOdds));
         }
     }
 
