@@ -233,6 +233,7 @@ pub fn replay(
         mode,
         robot_settings: mode == own,
         robot_width: usize::from(hello.width),
+        robot_height: usize::from(hello.height),
         bad_frames: stats.bad_frames.total(),
     };
     if side == GRID_SIDES[0] {
@@ -245,7 +246,7 @@ pub fn replay(
 /// The `Hello`'s grid must fit a built-in square and be the scenario's geometry; the
 /// side of the smallest square that holds it. The robot's grid is its world's size
 /// (`world::robot::grid_size`), which need not be square: the replay maps into the
-/// built-in square from the same origin, and compares the cells the robot's grid holds.
+/// built-in square from the same origin, limited to the robot's cells.
 fn check_grid(scenario: &Scenario, h: &Hello) -> Result<usize, ReplayError> {
     let (w, hh) = (usize::from(h.width), usize::from(h.height));
     let Some(side) = GRID_SIDES
@@ -275,8 +276,10 @@ struct Run<'a> {
     messages: &'a [Message],
     mode: PoseMode,
     robot_settings: bool,
-    /// Columns of the robot's grid, which its map chunks run along.
+    /// Columns of the robot's grid, which its map chunks run along, and its rows: the
+    /// replay maps only those cells, as the robot does.
     robot_width: usize,
+    robot_height: usize,
     bad_frames: u32,
 }
 
@@ -292,6 +295,7 @@ impl Run<'_> {
         });
         let mut slam: Box<Slam<W, H>> =
             Box::new(Slam::new(config, start).map_err(|e| ReplayError::Config(format!("{e:?}")))?);
+        slam.limit_map(self.robot_width, self.robot_height);
         let mut writer = TelemetryWriter::new(self.mode.localiser());
         let mut check = self.robot_settings.then(BitForBit::default);
         let mut summary = ReplaySummary {

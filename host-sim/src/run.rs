@@ -420,6 +420,9 @@ fn run_sized<const W: usize, const H: usize>(
     let mut robot = Robot::new(scenario, seed);
     let start = to_core_pose(&robot.truth());
     let mut slam: Box<Slam<W, H>> = Box::new(Slam::new(config, start).map_err(RunError::Config)?);
+    // The robot's grid is the world's own size: map only that much of the built-in square.
+    let (columns, rows) = world::robot::grid_size(scenario);
+    slam.limit_map(columns, rows);
     let real = real_mask(robot.world(), &config.geometry, W, H);
     let floor = floor_mask(robot.world(), &config.geometry, W, H);
     let floor_cells = FloorCells::new(&floor, W);

@@ -329,6 +329,13 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         &self.map
     }
 
+    /// Maps only the first `columns` x `rows` cells ([`GridMap::limit_to`]): for a core
+    /// built with a larger grid than the world's, to map as the robot built for that world
+    /// does.
+    pub fn limit_map(&mut self, columns: usize, rows: usize) {
+        self.map.limit_to(columns, rows);
+    }
+
     /// Totals since start.
     pub fn counters(&self) -> &Counters {
         &self.counters

@@ -121,6 +121,9 @@ pub struct GridMap<const W: usize, const H: usize> {
     /// the beam walk looks a cell's next value up, for any evidence, in one load and one
     /// register (an add and a clamp by values would take two of the M0+'s few).
     pub(super) after_miss: [LogOdds; 256],
+    /// Columns and rows in use, at most `W` and `H` ([`GridMap::limit_to`]).
+    pub(super) columns: u32,
+    pub(super) rows: u32,
     pub(super) cells: [[LogOdds; W]; H],
 }
 
@@ -156,8 +159,31 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
             evidence,
             divider: CellDivider::new(geometry.cell_mm as i64),
             after_miss: after_miss(&evidence),
+            columns: W as u32,
+            rows: H as u32,
             cells: [[0; W]; H],
         }
+    }
+
+    /// Maps only the first `columns` x `rows` cells (at most the grid's own): the rest
+    /// stay unknown and count as outside. A grid built larger than its world (the
+    /// simulator's, sized to hold any shipped world) then maps exactly as the robot's,
+    /// built to the world's size, does, beams leaving it included.
+    pub fn limit_to(&mut self, columns: usize, rows: usize) {
+        self.columns = columns.min(W) as u32;
+        self.rows = rows.min(H) as u32;
+    }
+
+    /// Columns and rows in use.
+    pub fn extent(&self) -> (usize, usize) {
+        (self.columns as usize, self.rows as usize)
+    }
+
+    /// Whether `(column, row)` is a cell in use: one unsigned comparison per axis rejects
+    /// negatives too.
+    #[inline(always)]
+    pub(super) fn inside(&self, column: i32, row: i32) -> bool {
+        (column as u32) < self.columns && (row as u32) < self.rows
     }
 
     /// Forgets everything: every cell back to unknown.
@@ -179,8 +205,11 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
 
     /// The log odds of a cell, or `None` outside the grid.
     pub fn log_odds(&self, column: i32, row: i32) -> Option<LogOdds> {
-        let row = self.cells.get(usize::try_from(row).ok()?)?;
-        row.get(usize::try_from(column).ok()?).copied()
+        if !self.inside(column, row) {
+            return None;
+        }
+        let row = self.cells.get(row as usize)?;
+        row.get(column as usize).copied()
     }
 
     /// What the map believes about a cell; outside the grid is unknown.
@@ -199,7 +228,8 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
         }
     }
 
-    /// Every row of raw log odds, lowest y first: for telemetry and pictures.
+    /// Every row of raw log odds, lowest y first: for telemetry and pictures. Cells beyond
+    /// the [`GridMap::extent`] are unknown.
     pub fn rows(&self) -> &[[LogOdds; W]; H] {
         &self.cells
     }
@@ -207,11 +237,14 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
     /// Counts cells by belief.
     pub fn counts(&self) -> OccupancyCounts {
         let mut counts = OccupancyCounts::default();
-        for &l in self.cells.iter().flatten() {
-            match self.classify(l) {
-                Occupancy::Free => counts.free += 1,
-                Occupancy::Occupied => counts.occupied += 1,
-                Occupancy::Unknown => counts.unknown += 1,
+        let (columns, rows) = self.extent();
+        for row in self.cells.iter().take(rows) {
+            for &l in row.iter().take(columns) {
+                match self.classify(l) {
+                    Occupancy::Free => counts.free += 1,
+                    Occupancy::Occupied => counts.occupied += 1,
+                    Occupancy::Unknown => counts.unknown += 1,
+                }
             }
         }
         counts
@@ -221,12 +254,16 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
     /// Returns whether the cell was inside.
     #[inline]
     pub fn add(&mut self, column: i32, row: i32, amount: LogOdds) -> bool {
-        // One unsigned comparison per axis rejects negatives too; the sum in 32 bits cannot
-        // overflow, and the clamp (at most `i8::MAX`) brings it back into a cell.
-        let (Ok(column), Ok(row)) = (usize::try_from(column), usize::try_from(row)) else {
+        // The sum in 32 bits cannot overflow, and the clamp (at most `i8::MAX`) brings it
+        // back into a cell.
+        if !self.inside(column, row) {
             return false;
-        };
-        let Some(cell) = self.cells.get_mut(row).and_then(|r| r.get_mut(column)) else {
+        }
+        let Some(cell) = self
+            .cells
+            .get_mut(row as usize)
+            .and_then(|r| r.get_mut(column as usize))
+        else {
             return false;
         };
         let clamp = i32::from(self.evidence.clamp);

@@ -21,8 +21,8 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
         let miss = i32::from(self.evidence.miss);
         let clamp = i32::from(self.evidence.clamp);
         let index = |(column, row): (i32, i32)| {
-            let inside = (column as u32) < W as u32 && (row as u32) < H as u32;
-            inside.then(|| row as usize * W + column as usize)
+            self.inside(column, row)
+                .then(|| row as usize * W + column as usize)
         };
         let ends = (index((walk.column, walk.row)), index(walk.end()));
         let (Some(mut at), Some(_), true) = (ends.0, ends.1, miss <= 0) else {
@@ -225,8 +225,7 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
                 from.1.checked_sub(g.origin_y_mm)?,
             );
             let (column, row) = (divider.fast_floor(x)?, divider.fast_floor(y)?);
-            let inside = (column as u32) < W as u32 && (row as u32) < H as u32;
-            if !inside || g.cell_mm >= SHORT_WALK_MM as i32 {
+            if !self.inside(column, row) || g.cell_mm >= SHORT_WALK_MM as i32 {
                 return None;
             }
             let (left, down) = (x - column * g.cell_mm, y - row * g.cell_mm);
@@ -270,9 +269,10 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
         let stop = (o.x + to.0, o.y + to.1);
         let divider = &self.divider;
         let cell_of = |p: (i32, i32)| Some((divider.fast_floor(p.0)?, divider.fast_floor(p.1)?));
-        let inside = |(c, r): (i32, i32)| (c as u32) < W as u32 && (r as u32) < H as u32;
-        let (Some(end_cell), Some(hit_cell)) = (cell_of(end).filter(|&c| inside(c)), cell_of(stop))
-        else {
+        let (Some(end_cell), Some(hit_cell)) = (
+            cell_of(end).filter(|&(c, r)| self.inside(c, r)),
+            cell_of(stop),
+        ) else {
             return self.insert_beam_any_along(start.map_mm, free, to, hit);
         };
         let spared = hit.then_some(hit_cell);
@@ -492,5 +492,36 @@ mod tests {
         // A beam leaving the grid entirely is clipped, not a panic.
         let n = g.insert_beam((700, 500), (700, 90_000), (700, 100_000), true);
         assert!(n > 0 && n < 60);
+    }
+
+    #[test]
+    fn a_grid_limited_to_a_world_maps_as_one_built_that_size() {
+        // The simulator's large grid limited to 20 x 12 against a 20 x 12 grid: beams from
+        // inside, many leaving it (fast walks and general ones), write the same cells and
+        // count the same; nothing beyond the limit is ever written.
+        let mut large: GridMap<46, 46> = GridMap::new(GEO, Evidence::SEED);
+        large.limit_to(20, 12);
+        let mut exact: GridMap<20, 12> = GridMap::new(GEO, Evidence::SEED);
+        let mut rng = crate::lcg::Lcg::new(7);
+        let mut next = |span: i32| rng.within(i64::from(span)) as i32;
+        for _ in 0..2_000 {
+            let from = (next(450) + 500, next(250) + 350);
+            let to = (from.0 + next(1_600), from.1 + next(1_600));
+            let free_end = (to.0 - next(40), to.1 - next(40));
+            let hit = next(1) >= 0;
+            assert_eq!(
+                large.insert_beam(from, free_end, to, hit),
+                exact.insert_beam(from, free_end, to, hit),
+                "{from:?} -> {to:?}"
+            );
+        }
+        for (r, row) in large.rows().iter().enumerate() {
+            for (c, &cell) in row.iter().enumerate() {
+                let want = exact.rows().get(r).and_then(|row| row.get(c)).copied();
+                assert_eq!(cell, want.unwrap_or(0), "({c}, {r})");
+            }
+        }
+        assert_eq!(large.counts(), exact.counts());
+        assert_eq!(large.log_odds(20, 0), None);
     }
 }

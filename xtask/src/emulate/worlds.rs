@@ -167,7 +167,7 @@ fn error_checks(v: &serde_json::Value, sim: &serde_json::Value) -> Vec<(String, 
         )
     }];
     let key = "max_error_after_first_fix_cm";
-    if !sim[key].is_null() || !v[key].is_null() {
+    if !sim["first_fix_s"].is_null() || !v["first_fix_s"].is_null() {
         let (e, s) = (num(&v[key]), num(&sim[key]));
         checks.push((
             format!("error after the first fix no worse than host-sim's by 2 cm or 25 %: emulator {e:.2} cm, host-sim {s:.2} cm"),
@@ -183,8 +183,8 @@ mod tests {
     use serde_json::json;
 
     fn passes(emulated: f64, simulated: f64) -> bool {
-        let v = json!({ "final_error_cm": emulated, "max_error_after_first_fix_cm": null });
-        let sim = json!({ "final_error_cm": simulated, "max_error_after_first_fix_cm": null });
+        let v = json!({ "final_error_cm": emulated, "first_fix_s": null });
+        let sim = json!({ "final_error_cm": simulated, "first_fix_s": null });
         let checks = error_checks(&v, &sim);
         assert_eq!(checks.len(), 1, "no fix, no check after it");
         checks[0].1
@@ -201,8 +201,8 @@ mod tests {
 
     #[test]
     fn a_fix_on_either_side_adds_its_check() {
-        let v = json!({ "final_error_cm": 1.0, "max_error_after_first_fix_cm": 9.0 });
-        let sim = json!({ "final_error_cm": 1.0, "max_error_after_first_fix_cm": 1.0 });
+        let v = json!({ "final_error_cm": 1.0, "first_fix_s": 3.0, "max_error_after_first_fix_cm": 9.0 });
+        let sim = json!({ "final_error_cm": 1.0, "first_fix_s": null, "max_error_after_first_fix_cm": 1.0 });
         let checks = error_checks(&v, &sim);
         assert_eq!(checks.len(), 2);
         assert!(checks[0].1 && !checks[1].1);
