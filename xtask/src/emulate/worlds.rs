@@ -10,8 +10,6 @@ use std::path::{Path, PathBuf};
 
 use super::checks::{self, host_sim_run, print_checks, world_checks};
 
-/// The worlds flown without `--world`: every scenario shipped.
-const SCENARIOS: &str = "host-sim/scenarios";
 /// Simulated seconds past the route's end: the gyro's calibration before it starts, and
 /// time for the last tick's telemetry to get out.
 const AFTER_ROUTE_S: f64 = 4.0;
@@ -19,7 +17,7 @@ const AFTER_ROUTE_S: f64 = 4.0;
 /// `cargo xtask emulate-worlds`'s options.
 #[derive(clap::Args, Debug)]
 pub struct WorldsArgs {
-    /// Only these scenario files (repeatable); every one in host-sim/scenarios without it.
+    /// Only these scenario files (repeatable); every shipped scenario without it.
     #[arg(long = "world", value_name = "FILE")]
     worlds: Vec<PathBuf>,
 }
@@ -27,7 +25,7 @@ pub struct WorldsArgs {
 /// Flies each world, prints its checks and a table, and fails if any check failed.
 pub fn run(args: &WorldsArgs) -> Result<(), String> {
     let worlds = if args.worlds.is_empty() {
-        shipped()?
+        shipped()
     } else {
         args.worlds.clone()
     };
@@ -58,17 +56,14 @@ pub fn run(args: &WorldsArgs) -> Result<(), String> {
     Ok(())
 }
 
-/// Every `.toml` under [`SCENARIOS`], by name.
-fn shipped() -> Result<Vec<PathBuf>, String> {
-    let dir = crate::workspace_root().join(SCENARIOS);
-    let entries =
-        std::fs::read_dir(&dir).map_err(|e| format!("cannot list {}: {e}", dir.display()))?;
-    let mut worlds: Vec<PathBuf> = entries
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
-        .collect();
-    worlds.sort();
-    Ok(worlds)
+/// Every shipped scenario (`world::shipped::SHIPPED`, which a test holds to the
+/// directory), in the order listed there.
+fn shipped() -> Vec<PathBuf> {
+    let dir = world::shipped::directory();
+    world::shipped::SHIPPED
+        .iter()
+        .map(|name| dir.join(name))
+        .collect()
 }
 
 /// One world's flight, as the table shows it.
