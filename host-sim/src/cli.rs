@@ -77,7 +77,8 @@ pub struct RunArgs {
     /// at one, counted as a collision). Shows what the guard saves.
     #[arg(long)]
     pub no_guard: bool,
-    /// Draw DIR/NAME-POSE-map.png and DIR/NAME-POSE-chart.png, creating DIR.
+    /// Draw DIR/NAME-POSE-map.png and DIR/NAME-POSE-chart.png, and write each tick's
+    /// figures as a line of JSON to DIR/NAME-POSE-ticks.jsonl, creating DIR.
     #[arg(long, value_name = "DIR", value_hint = ValueHint::DirPath)]
     pub out: Option<PathBuf>,
     /// Also write the telemetry stream the robot would send on this run.
@@ -143,7 +144,8 @@ pub struct ViewArgs {
     /// A recorded telemetry file, or the robot's serial device (e.g. /dev/ttyACM0, COM3).
     #[arg(value_name = "SOURCE", value_hint = ValueHint::AnyPath)]
     pub source: PathBuf,
-    /// Draw the map and chart into DIR, creating it.
+    /// Draw the map and chart into DIR, with each tick's figures in STEM-ticks.jsonl,
+    /// creating it.
     #[arg(long, value_name = "DIR", value_hint = ValueHint::DirPath)]
     pub out: Option<PathBuf>,
     /// Serial speed, baud: the firmware's telemetry link runs at 921600.
@@ -199,7 +201,8 @@ pub struct ReplayArgs {
     /// Print the replay and the figures as one JSON object.
     #[arg(long)]
     pub json: bool,
-    /// Draw the replayed run's map and chart into DIR, creating it.
+    /// Draw the replayed run's map and chart into DIR, with each tick's figures in
+    /// STEM-ticks.jsonl, creating it.
     #[arg(long, value_name = "DIR", value_hint = ValueHint::DirPath)]
     pub out: Option<PathBuf>,
 }

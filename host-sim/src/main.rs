@@ -165,7 +165,8 @@ fn export_map(record: &RunRecord, dir: &Path, quiet: bool) -> Result<(), Failure
     Ok(())
 }
 
-/// Writes `DIR/STEM-map.png` and `DIR/STEM-chart.png`, creating `dir`.
+/// Writes `DIR/STEM-map.png`, `DIR/STEM-chart.png` and `DIR/STEM-ticks.jsonl` (a line of
+/// JSON per tick: the chart's figures, for a script to read), creating `dir`.
 fn write_pictures(
     record: &RunRecord,
     dir: &Path,
@@ -178,7 +179,20 @@ fn write_pictures(
     picture::map_png(record, &map).map_err(|e| Failure(1, format!("{}: {e}", map.display())))?;
     picture::chart_png(record, &chart)
         .map_err(|e| Failure(1, format!("{}: {e}", chart.display())))?;
+    let ticks = dir.join(format!("{stem}-ticks.jsonl"));
+    write_ticks(record, &ticks).map_err(|e| Failure(1, format!("{}: {e}", ticks.display())))?;
     Ok((map, chart))
+}
+
+/// Writes each of `record`'s ticks as one line of JSON.
+fn write_ticks(record: &RunRecord, path: &Path) -> std::io::Result<()> {
+    use std::io::Write;
+    let mut out = std::io::BufWriter::new(std::fs::File::create(path)?);
+    for tick in &record.ticks {
+        serde_json::to_writer(&mut out, tick)?;
+        out.write_all(b"\n")?;
+    }
+    out.flush()
 }
 
 /// Whether `path` names a serial device rather than a recorded file.

@@ -137,6 +137,18 @@ fn the_viewer_gets_the_run_back() {
         let len = std::fs::metadata(pictures.join(name)).map_or(0, |m| m.len());
         assert!(len > 1000, "{name}: {len} bytes");
     }
+    // And a line of JSON per tick, in order.
+    let ticks = std::fs::read_to_string(pictures.join("seed-ticks.jsonl")).unwrap_or_default();
+    let times: Vec<f64> = ticks
+        .lines()
+        .map(|l| {
+            serde_json::from_str::<serde_json::Value>(l).unwrap_or_default()["t_s"]
+                .as_f64()
+                .unwrap_or(f64::NAN)
+        })
+        .collect();
+    assert_eq!(times.len(), run_ticks, "{}", ticks.len());
+    assert!(times.windows(2).all(|w| w[0] < w[1]), "{times:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 
