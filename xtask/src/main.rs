@@ -127,7 +127,8 @@ pub fn cargo() -> Command {
 
 /// Every test the project has: the host crates, the live page in headless Chromium, the
 /// emulator's own self-tests (its device models and harness), the firmware build with its
-/// flash and RAM budget check, and the firmware itself on the emulated RP2040. Ends with
+/// flash and RAM budget check, and the firmware itself on the emulated RP2040 (faults, the
+/// fault matrix's 24 cases, the seed route, a reset and a room). Ends with
 /// one line totalling the tests, so a reader (or CI) does not have to add up cargo's lines.
 fn test() -> Result<(), String> {
     let (cargo_passed, cargo_failed) = stage::timed("cargo-tests", || {
@@ -137,6 +138,8 @@ fn test() -> Result<(), String> {
     let (self_passed, self_failed) = stage::timed("emulator-self-tests", emulate::self_tests::run)?;
     stage::timed("firmware-build", || firmware::run(&FirmwareArgs::default()))?;
     let (fault_passed, fault_failed) = stage::timed("emulator-faults", emulate::checks::fault_run)?;
+    let (matrix_passed, matrix_failed) =
+        stage::timed("emulator-fault-matrix", emulate::fault_matrix::ci_run)?;
     let (route_passed, route_failed) = stage::timed("emulator-route", emulate::checks::route_run)?;
     let (reset_passed, reset_failed) = stage::timed("emulator-reset", emulate::checks::reset_run)?;
     // Last, as it leaves the firmware built for the room rather than the seed mat.
@@ -145,6 +148,7 @@ fn test() -> Result<(), String> {
         + browser_passed
         + self_passed
         + fault_passed
+        + matrix_passed
         + route_passed
         + reset_passed
         + room_passed;
@@ -152,6 +156,7 @@ fn test() -> Result<(), String> {
         + browser_failed
         + self_failed
         + fault_failed
+        + matrix_failed
         + route_failed
         + reset_failed
         + room_failed;
