@@ -13,6 +13,12 @@
 //!   the instant its frame arrived ([`TagPicture`]): the camera keeps its own schedule, so
 //!   the tick tells the core how old the tags are.
 //!
+//! The gyro's mean comes with the instant its newest sample was read ([`GyroMean`]): the
+//! samples are read on the IMU's own 200 Hz grid, so the tick's odometry reaches that
+//! instant, a few milliseconds before the tick wakes, and the tick counts the tags' and
+//! the scan's ages back from it (the core carries a sighting from its moment to the
+//! frame's pose by the odometry, which must end where the ages start).
+//!
 //! In every case "nothing since the last tick" comes out as `None`, which is exactly what
 //! [`slam_core::SensorFrame`] calls stale, and the core counts it. Flow is also stale when
 //! any read in the tick failed ([`FlowInbox::poison`]): a sum missing a read is wrong. A
@@ -94,12 +100,24 @@ impl FlowInbox {
 }
 
 /// Sum and count of yaw-rate samples, for a mean over the tick.
-#[derive(Clone, Copy, Default)]
+#[derive(Clone, Copy)]
 struct RateSum {
     /// Sum of samples, in millidegrees per second.
     total_mdps: i64,
     /// Number of samples summed.
     samples: u32,
+    /// When the newest sample was read.
+    newest: Instant,
+}
+
+/// The gyro's mean rate over a tick and the instant its newest sample was read: the
+/// moment the tick's odometry reaches.
+#[derive(Clone, Copy)]
+pub struct GyroMean {
+    /// The mean of the tick's samples.
+    pub rate: GyroRate,
+    /// When the newest of them was read.
+    pub newest: Instant,
 }
 
 /// Gyro yaw-rate samples averaged since the SLAM tick last took them.
@@ -111,26 +129,31 @@ impl GyroInbox {
         GyroInbox(Mutex::new(Cell::new(None)))
     }
 
-    /// Adds one bias-corrected yaw-rate sample.
-    pub fn add(&self, rate: GyroRate) {
+    /// Adds one bias-corrected yaw-rate sample, read at `at`.
+    pub fn add(&self, rate: GyroRate, at: Instant) {
         self.0.lock(|sum| {
-            let old = sum.get().unwrap_or_default();
+            let (total_mdps, samples) = sum.get().map_or((0, 0), |s| (s.total_mdps, s.samples));
             sum.set(Some(RateSum {
-                total_mdps: old.total_mdps.saturating_add(rate.rate_mdps as i64),
-                samples: old.samples.saturating_add(1),
+                total_mdps: total_mdps.saturating_add(rate.rate_mdps as i64),
+                samples: samples.saturating_add(1),
+                newest: at,
             }));
         });
     }
 
-    /// The mean rate since the last call, or `None` (stale) if no sample arrived.
-    pub fn take(&self) -> Option<GyroRate> {
+    /// The mean rate since the last call and when its newest sample was read, or `None`
+    /// (stale) if no sample arrived.
+    pub fn take(&self) -> Option<GyroMean> {
         let sum = self.0.lock(Cell::take)?;
         if sum.samples == 0 {
             return None;
         }
         let mean = sum.total_mdps / sum.samples as i64;
-        Some(GyroRate {
-            rate_mdps: mean.clamp(i32::MIN as i64, i32::MAX as i64) as i32,
+        Some(GyroMean {
+            rate: GyroRate {
+                rate_mdps: mean.clamp(i32::MIN as i64, i32::MAX as i64) as i32,
+            },
+            newest: sum.newest,
         })
     }
 }

@@ -248,7 +248,12 @@ pub async fn slam_task(
         // Each input: `None` (stale) unless its task published since the last tick.
         let mut frame = SensorFrame::empty(dt_us.saturating_add(unseen_us));
         frame.flow = inputs.flow.take();
-        frame.gyro = inputs.gyro.take();
+        let gyro = inputs.gyro.take();
+        frame.gyro = gyro.map(|g| g.rate);
+        // The moment the frame's odometry reaches: the core carries a picture or a scan
+        // from its own moment to the frame's pose by the odometry, so their ages count
+        // back from the newest gyro sample, which sets the heading, not from the wake-up.
+        let odometry_at = gyro.map_or(started, |g| g.newest.min(started));
         if unseen_us > 0 {
             (frame.flow, frame.gyro, unseen_us) = (None, None, 0);
         }
@@ -256,13 +261,13 @@ pub async fn slam_task(
             frame.depth = Some(reading.scan);
             // The sensor ranges on its own 15 Hz clock: a scan is up to a frame old, and
             // the core maps it at the pose of that moment.
-            frame.depth_age_us = micros(started.saturating_duration_since(reading.measured));
+            frame.depth_age_us = micros(odometry_at.saturating_duration_since(reading.measured));
         }
         if let Some(picture) = inputs.tags.try_take() {
             frame.tags = picture.tags;
-            // How long before this tick the picture arrived; one that arrived after the
-            // tick's instant (while this frame was being gathered) counts as taken at it.
-            frame.tags_age_us = micros(started.saturating_duration_since(picture.received));
+            // How long before the odometry's moment the picture arrived; one that arrived
+            // after it counts as taken at it.
+            frame.tags_age_us = micros(odometry_at.saturating_duration_since(picture.received));
         }
 
         let trusted_before = trust;

@@ -204,7 +204,7 @@ impl Supervised for ImuPart {
         let rate = GyroRate {
             rate_mdps: rate.rate_mdps,
         };
-        self.inputs.gyro.add(rate);
+        self.inputs.gyro.add(rate, now);
         self.inputs
             .yaw
             .integrate(rate, gap_us.min(MAX_INTEGRATION_GAP_US));
