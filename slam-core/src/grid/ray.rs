@@ -376,11 +376,11 @@ impl BeamWriter<'_> {
     ) -> u32 {
         let hit_cell = self.divider.cell_of(&self.geometry, to);
         let spared = hit.then_some(hit_cell);
-        let mut written =
-            match CellWalk::with_divider(&self.geometry, self.divider, from, free_end) {
-                CellWalk::Short(walk) => self.mark_free(walk, spared),
-                CellWalk::Long(walk) => self.mark_free(walk, spared),
-            };
+        let mut written = match CellWalk::with_divider(&self.geometry, self.divider, from, free_end)
+        {
+            CellWalk::Short(walk) => self.mark_free(walk, spared),
+            CellWalk::Long(walk) => self.mark_free(walk, spared),
+        };
         if hit && self.add(hit_cell.0, hit_cell.1, self.evidence.hit) {
             written += 1;
         }
