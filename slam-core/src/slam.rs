@@ -6,7 +6,7 @@ use crate::estimator::{
     TagRefusal,
 };
 use crate::frame::{DepthScan, FlowDelta, GyroRate, SensorFrame, BEAMS};
-use crate::grid::{Evidence, GridGeometry, GridMap};
+use crate::grid::{BeamWriter, Evidence, GridGeometry, GridMap};
 use crate::history::PoseHistory;
 use crate::matcher::{Match, MatcherConfig, SeedMatcher};
 #[cfg(feature = "matching")]
@@ -600,41 +600,55 @@ impl<const W: usize, const H: usize> Slam<W, H> {
     }
 
     fn map_scan(&mut self, scan: &DepthScan, pose: &Pose) -> u32 {
-        let origin = (pose.x_mm(), pose.y_mm());
-        let start = self.map.beam_origin(origin);
-        let max = self.config.depth.max_range_mm as i32;
-        let cell = self.config.geometry.cell_mm;
-        let mut written = 0;
-        for (range, angle) in scan
-            .ranges_mm
-            .iter()
-            .zip(self.config.depth.beam_angles.iter())
-        {
-            let Some(range) = *range else {
-                self.counters.beams_invalid += 1;
-                continue;
-            };
-            let range = range as i32;
-            let dir = pose.heading + *angle;
-            let (s, c) = (dir.sin(), dir.cos());
-            // `mul_q16`; a range under 2^15 mm times a sine (at most 2^16) fits 32 bits,
-            // one M0+ multiply.
-            let along = |r: i32, f: i32| {
-                if r < 1 << 15 {
-                    (r * f + (1 << 15)) >> 16
-                } else {
-                    mul_q16(i64::from(r), f) as i32
-                }
-            };
-            let point = |r: i32| (along(r, s), along(r, c));
-            // Free up to a cell short of where the beam stopped (or of the range limit).
-            let free = point((range.min(max) - cell).max(0));
-            let hit = range < max;
-            written += self
-                .map
-                .insert_ray(&start, free, point(range.min(max)), hit);
-            self.counters.beams_mapped += 1;
-        }
-        written
+        map_scan(
+            &mut self.map.beams(),
+            &self.config,
+            &mut self.counters,
+            scan,
+            pose,
+        )
     }
+}
+
+/// Writes `scan`, taken at `pose`, into the grid; returns the cells written.
+///
+/// Not generic over the grid's size (the beams go through a [`BeamWriter`]): one copy,
+/// built in this crate, whatever grid the caller sizes.
+fn map_scan(
+    map: &mut BeamWriter<'_>,
+    config: &SlamConfig,
+    counters: &mut Counters,
+    scan: &DepthScan,
+    pose: &Pose,
+) -> u32 {
+    let origin = (pose.x_mm(), pose.y_mm());
+    let start = map.beam_origin(origin);
+    let max = config.depth.max_range_mm as i32;
+    let cell = config.geometry.cell_mm;
+    let mut written = 0;
+    for (range, angle) in scan.ranges_mm.iter().zip(config.depth.beam_angles.iter()) {
+        let Some(range) = *range else {
+            counters.beams_invalid += 1;
+            continue;
+        };
+        let range = range as i32;
+        let dir = pose.heading + *angle;
+        let (s, c) = (dir.sin(), dir.cos());
+        // `mul_q16`; a range under 2^15 mm times a sine (at most 2^16) fits 32 bits,
+        // one M0+ multiply.
+        let along = |r: i32, f: i32| {
+            if r < 1 << 15 {
+                (r * f + (1 << 15)) >> 16
+            } else {
+                mul_q16(i64::from(r), f) as i32
+            }
+        };
+        let point = |r: i32| (along(r, s), along(r, c));
+        // Free up to a cell short of where the beam stopped (or of the range limit).
+        let free = point((range.min(max) - cell).max(0));
+        let hit = range < max;
+        written += map.insert_ray(&start, free, point(range.min(max)), hit);
+        counters.beams_mapped += 1;
+    }
+    written
 }

@@ -112,27 +112,46 @@ fn round_mul_each<const L: usize>(
     other: impl Fn(i64) -> i64,
 ) -> [i64; L] {
     // Half a unit of the quotient rounds a positive product half up; a negative one,
-    // -x / 2^s rounded half up, is -((x + half - 1) >> s).
+    // -x / 2^s rounded half up, is -((x + half - 1) >> s). The shift's two cases are
+    // separate loops: each then keeps fewer values live than the M0+ has registers.
     let half = half_of_shift(shift);
-    v.map(|v| {
-        if !fits_i32(v) {
-            return other(v);
-        }
-        let below = (v < 0) != negative;
-        let p =
-            wide_mul_unsigned((v as i32).unsigned_abs(), m) + if below { half - 1 } else { half };
-        let (hi, lo) = ((p >> 32) as u32, p as u32);
-        let q = if shift < 32 {
-            (u64::from(hi >> shift) << 32) | u64::from((lo >> shift) | (hi << (32 - shift)))
-        } else {
-            u64::from(hi >> (shift - 32))
-        } as i64;
-        if below {
-            -q
-        } else {
-            q
-        }
-    })
+    if shift < 32 {
+        v.map(|v| {
+            round_mul_one(v, m, negative, half, &other, |hi, lo| {
+                (u64::from(hi >> shift) << 32) | u64::from((lo >> shift) | (hi << (32 - shift)))
+            })
+        })
+    } else {
+        let high_shift = shift - 32;
+        v.map(|v| {
+            round_mul_one(v, m, negative, half, &other, |hi, _| {
+                u64::from(hi >> high_shift)
+            })
+        })
+    }
+}
+
+/// One entry of [`round_mul_each`], `quotient` shifting the biased product's halves.
+#[inline(always)]
+fn round_mul_one(
+    v: i64,
+    m: u32,
+    negative: bool,
+    half: u64,
+    other: &impl Fn(i64) -> i64,
+    quotient: impl Fn(u32, u32) -> u64,
+) -> i64 {
+    if !fits_i32(v) {
+        return other(v);
+    }
+    let below = (v < 0) != negative;
+    let p = wide_mul_unsigned((v as i32).unsigned_abs(), m) + if below { half - 1 } else { half };
+    let q = quotient((p >> 32) as u32, p as u32) as i64;
+    if below {
+        -q
+    } else {
+        q
+    }
 }
 
 /// `2^(shift - 1)` for `1 <= shift < 62`, from a 32-bit shift: a 64-bit shift by a

@@ -12,7 +12,7 @@ mod walk;
 
 pub use divider::CellDivider;
 pub use map::{Evidence, GridGeometry, GridMap, LogOdds, Occupancy, OccupancyCounts, LOG_ODDS_ONE};
-pub use ray::BeamOrigin;
+pub use ray::{BeamOrigin, BeamWriter};
 pub use walk::{CellWalk, Walk, WalkInt, SHORT_WALK_MM};
 
 /// The seed's grid geometry (5 cm cells, 15 cm margin), for the tests of every part.

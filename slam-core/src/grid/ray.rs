@@ -2,15 +2,149 @@
 //!
 //! A beam from inside the grid and shorter than [`SHORT_WALK_MM`] takes a specialised loop
 //! (`free_ray` and `free_walk`); anything else takes the general walk (`mark_free`).
+//!
+//! The beam code works on a [`BeamWriter`], the grid's cells as a slice with their width,
+//! not on `GridMap<W, H>`: code generic over the grid's size is built in the crate that
+//! names the size (the firmware, under its own `opt-level`), while this is built once,
+//! here, under the core's.
 
-use super::map::{GridMap, LogOdds};
+use super::divider::CellDivider;
+use super::map::{Evidence, GridGeometry, GridMap, LogOdds};
 use super::walk::{CellWalk, Walk, WalkInt, SHORT_WALK_MM};
 
 impl<const W: usize, const H: usize> GridMap<W, H> {
+    /// The grid as its beams write it: cells, width and rules, without the size in the
+    /// type. For writing a scan's beams one after another.
+    pub fn beams(&mut self) -> BeamWriter<'_> {
+        BeamWriter {
+            geometry: self.geometry,
+            evidence: self.evidence,
+            divider: &self.divider,
+            after_miss: &self.after_miss,
+            columns: self.columns,
+            rows: self.rows,
+            width: W,
+            cells: self.cells.as_flattened_mut(),
+        }
+    }
+
+    /// Writes one beam: see [`BeamWriter::insert_beam`].
+    pub fn insert_beam(
+        &mut self,
+        from: (i32, i32),
+        free_end: (i32, i32),
+        to: (i32, i32),
+        hit: bool,
+    ) -> u32 {
+        self.beams().insert_beam(from, free_end, to, hit)
+    }
+
+    /// Where beams from `from` (map millimetres) start, worked out once for a scan's beams.
+    pub fn beam_origin(&self, from: (i32, i32)) -> BeamOrigin {
+        beam_origin(
+            &self.geometry,
+            &self.divider,
+            (self.columns, self.rows),
+            from,
+        )
+    }
+
+    /// Writes one beam from `start`: see [`BeamWriter::insert_ray`].
+    pub fn insert_ray(
+        &mut self,
+        start: &BeamOrigin,
+        free: (i32, i32),
+        to: (i32, i32),
+        hit: bool,
+    ) -> u32 {
+        self.beams().insert_ray(start, free, to, hit)
+    }
+}
+
+/// A grid's cells as a flat slice, `width` cells a row, with what its beams need to write
+/// them ([`GridMap::beams`]).
+pub struct BeamWriter<'a> {
+    geometry: GridGeometry,
+    evidence: Evidence,
+    divider: &'a CellDivider,
+    after_miss: &'a [LogOdds; 256],
+    /// Columns and rows in use ([`GridMap::limit_to`]).
+    columns: u32,
+    rows: u32,
+    /// Cells in a row of `cells`.
+    width: usize,
+    cells: &'a mut [LogOdds],
+}
+
+/// [`GridMap::beam_origin`] for a grid of `extent` columns and rows in use.
+fn beam_origin(
+    g: &GridGeometry,
+    divider: &CellDivider,
+    extent: (u32, u32),
+    from: (i32, i32),
+) -> BeamOrigin {
+    let cell = (|| {
+        let (x, y) = (
+            from.0.checked_sub(g.origin_x_mm)?,
+            from.1.checked_sub(g.origin_y_mm)?,
+        );
+        let (column, row) = (divider.fast_floor(x)?, divider.fast_floor(y)?);
+        let inside = (column as u32) < extent.0 && (row as u32) < extent.1;
+        if !inside || g.cell_mm >= SHORT_WALK_MM as i32 {
+            return None;
+        }
+        let (left, down) = (x - column * g.cell_mm, y - row * g.cell_mm);
+        Some(OriginCell {
+            x,
+            y,
+            column,
+            row,
+            right: g.cell_mm - left,
+            left,
+            up: g.cell_mm - down,
+            down,
+        })
+    })();
+    BeamOrigin { map_mm: from, cell }
+}
+
+impl BeamWriter<'_> {
+    /// Whether `(column, row)` is a cell in use, as [`GridMap::inside`].
+    #[inline(always)]
+    fn inside(&self, column: i32, row: i32) -> bool {
+        (column as u32) < self.columns && (row as u32) < self.rows
+    }
+
+    /// Adds `amount` to a cell, as [`GridMap::add`].
+    #[inline]
+    fn add(&mut self, column: i32, row: i32, amount: LogOdds) -> bool {
+        if !self.inside(column, row) {
+            return false;
+        }
+        let at = row as usize * self.width + column as usize;
+        let Some(cell) = self.cells.get_mut(at) else {
+            return false;
+        };
+        let clamp = i32::from(self.evidence.clamp);
+        *cell = (i32::from(*cell) + i32::from(amount))
+            .max(-clamp)
+            .min(clamp) as LogOdds;
+        true
+    }
+
+    /// Where beams from `from` start, as [`GridMap::beam_origin`].
+    pub fn beam_origin(&self, from: (i32, i32)) -> BeamOrigin {
+        beam_origin(
+            &self.geometry,
+            self.divider,
+            (self.columns, self.rows),
+            from,
+        )
+    }
     /// Marks the cells of `walk` free but for `spared`; returns how many were inside the
     /// grid.
     ///
-    /// Any walk: beams take [`GridMap::free_ray`] first, which leaves here only what its
+    /// Any walk: beams take [`BeamWriter::free_ray`] first, which leaves here only what its
     /// loop does not cover. When both end cells are in the grid, so is every cell between
     /// (the walk never leaves their bounding box), and the loop steps a flat index instead
     /// of checking each cell's column and row. Never inlined: inside a large caller (the
@@ -22,7 +156,7 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
         let clamp = i32::from(self.evidence.clamp);
         let index = |(column, row): (i32, i32)| {
             self.inside(column, row)
-                .then(|| row as usize * W + column as usize)
+                .then(|| row as usize * self.width + column as usize)
         };
         let ends = (index((walk.column, walk.row)), index(walk.end()));
         let (Some(mut at), Some(_), true) = (ends.0, ends.1, miss <= 0) else {
@@ -43,8 +177,8 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
         let visited = 1 + walk.columns_left + walk.rows_left;
         let mut spared = spared.and_then(index).unwrap_or(usize::MAX);
         let column_step = walk.step_column as isize;
-        let row_step = walk.step_row as isize * W as isize;
-        let cells = self.cells.as_flattened_mut();
+        let row_step = walk.step_row as isize * self.width as isize;
+        let cells = &mut *self.cells;
         let mut free = |at: usize| {
             if at == spared {
                 spared = SEEN;
@@ -85,7 +219,7 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
 
     /// Frees a beam's walk from `o`'s cell to `end` (millimetres from the grid's
     /// corner, in the grid, less than [`SHORT_WALK_MM`] from the start along each axis),
-    /// sparing `spared`; `None` when the walk needs [`GridMap::mark_free`] instead.
+    /// sparing `spared`; `None` when the walk needs [`BeamWriter::mark_free`] instead.
     ///
     /// The common case in one loop with one counter, specialised by direction, which the
     /// Cortex-M0+ runs from its registers. The walk crosses exactly the first
@@ -134,63 +268,20 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
                 delta_row: cell * adx,
             },
         };
-        let at = o.row as usize * W + o.column as usize;
+        let at = o.row as usize * self.width + o.column as usize;
         let count = 1 + columns + rows - u32::from(spare_end);
-        let direction = (dx > 0, dy > 0);
-        self.free_walk_in_direction(direction, at, steps, count);
+        let column_step: isize = if dx > 0 { 1 } else { -1 };
+        let width = self.width as isize;
+        let row_step = if dy > 0 { width } else { -width };
+        free_walk(
+            self.cells,
+            self.after_miss,
+            at,
+            &steps,
+            (column_step, row_step),
+            count,
+        );
         Some(count)
-    }
-
-    /// [`GridMap::free_walk`] for the walk's direction: right, up.
-    #[inline(always)]
-    fn free_walk_in_direction(
-        &mut self,
-        direction: (bool, bool),
-        at: usize,
-        steps: Steps,
-        count: u32,
-    ) {
-        match direction {
-            (true, true) => self.free_walk::<true, true>(at, steps, count),
-            (true, false) => self.free_walk::<true, false>(at, steps, count),
-            (false, true) => self.free_walk::<false, true>(at, steps, count),
-            (false, false) => self.free_walk::<false, false>(at, steps, count),
-        }
-    }
-
-    /// Frees `count` cells from flat index `at`, stepping right (`RIGHT`) or left and up
-    /// (`UP`) or down as `steps` decides. Never inlined: alone, its state nearly fits the
-    /// M0+'s registers. Each step is looked up by the difference's sign bit, which the M0+
-    /// does in fewer cycles than the compare-and-select the compiler makes of an `if`.
-    #[inline(never)]
-    fn free_walk<const RIGHT: bool, const UP: bool>(
-        &mut self,
-        mut at: usize,
-        steps: Steps,
-        count: u32,
-    ) {
-        let column_step: isize = if RIGHT { 1 } else { -1 };
-        let row_step: isize = if UP { W as isize } else { -(W as isize) };
-        let after_miss = &self.after_miss;
-        let cells = self.cells.as_flattened_mut();
-        let Steps {
-            mut diff,
-            delta_column,
-            delta_row,
-        } = steps;
-        let by_sign = [
-            (delta_row.wrapping_neg(), row_step),
-            (delta_column, column_step),
-        ];
-        for _ in 0..count {
-            if let Some(cell) = cells.get_mut(at) {
-                *cell = after_miss[*cell as u8 as usize];
-            }
-            // One step past the last cell is computed and never used.
-            let (d, step) = by_sign[(diff as u32 >> 31) as usize];
-            diff = diff.wrapping_add(d);
-            at = at.wrapping_add_signed(step);
-        }
     }
 
     /// Writes one beam: free along it, occupied where it stopped.
@@ -215,35 +306,7 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
         }
     }
 
-    /// Where beams from `from` (map millimetres) start, worked out once for a scan's beams.
-    pub fn beam_origin(&self, from: (i32, i32)) -> BeamOrigin {
-        let g = &self.geometry;
-        let divider = &self.divider;
-        let cell = (|| {
-            let (x, y) = (
-                from.0.checked_sub(g.origin_x_mm)?,
-                from.1.checked_sub(g.origin_y_mm)?,
-            );
-            let (column, row) = (divider.fast_floor(x)?, divider.fast_floor(y)?);
-            if !self.inside(column, row) || g.cell_mm >= SHORT_WALK_MM as i32 {
-                return None;
-            }
-            let (left, down) = (x - column * g.cell_mm, y - row * g.cell_mm);
-            Some(OriginCell {
-                x,
-                y,
-                column,
-                row,
-                right: g.cell_mm - left,
-                left,
-                up: g.cell_mm - down,
-                down,
-            })
-        })();
-        BeamOrigin { map_mm: from, cell }
-    }
-
-    /// [`GridMap::insert_beam`] for a beam from `start`: its free cells end `free`
+    /// [`BeamWriter::insert_beam`] for a beam from `start`: its free cells end `free`
     /// millimetres away (`dx`, `dy`), and it stopped `to` away.
     ///
     /// Never inlined, with `free_ray` inlined into it: a beam's set-up then has a frame of
@@ -267,7 +330,7 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
         // Both under 2^15 from the grid's corner: the sums cannot overflow.
         let end = (o.x + free.0, o.y + free.1);
         let stop = (o.x + to.0, o.y + to.1);
-        let divider = &self.divider;
+        let divider = self.divider;
         let cell_of = |p: (i32, i32)| Some((divider.fast_floor(p.0)?, divider.fast_floor(p.1)?));
         let (Some(end_cell), Some(hit_cell)) = (
             cell_of(end).filter(|&(c, r)| self.inside(c, r)),
@@ -285,7 +348,7 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
         written
     }
 
-    /// [`GridMap::insert_beam_any`] with the ends given from `from`.
+    /// [`BeamWriter::insert_beam_any`] with the ends given from `from`.
     #[cold]
     #[inline(never)]
     fn insert_beam_any_along(
@@ -299,7 +362,7 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
         self.insert_beam_any(from, at(free), at(to), hit)
     }
 
-    /// [`GridMap::insert_beam`] the general way, for any segment in or out of the grid.
+    /// [`BeamWriter::insert_beam`] the general way, for any segment in or out of the grid.
     /// Kept out of line (and cold), so the beams' own path stays small enough for the
     /// Cortex-M0+'s registers.
     #[cold]
@@ -313,11 +376,11 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
     ) -> u32 {
         let hit_cell = self.divider.cell_of(&self.geometry, to);
         let spared = hit.then_some(hit_cell);
-        let mut written =
-            match CellWalk::with_divider(&self.geometry, &self.divider, from, free_end) {
-                CellWalk::Short(walk) => self.mark_free(walk, spared),
-                CellWalk::Long(walk) => self.mark_free(walk, spared),
-            };
+        let mut written = match CellWalk::with_divider(&self.geometry, self.divider, from, free_end)
+        {
+            CellWalk::Short(walk) => self.mark_free(walk, spared),
+            CellWalk::Long(walk) => self.mark_free(walk, spared),
+        };
         if hit && self.add(hit_cell.0, hit_cell.1, self.evidence.hit) {
             written += 1;
         }
@@ -350,7 +413,38 @@ struct OriginCell {
     down: i32,
 }
 
-/// A 32-bit walk's difference rule, as [`GridMap::free_walk`] takes it.
+/// Frees `count` cells of `cells` from flat index `at`, stepping along a row or a column
+/// (`step`: the column's step, then the row's) as `steps` decides. Never inlined: alone,
+/// its state nearly fits the M0+'s registers. Each step is looked up by the difference's
+/// sign bit, which the M0+ does in fewer cycles than the compare-and-select the compiler
+/// makes of an `if`.
+#[inline(never)]
+fn free_walk(
+    cells: &mut [LogOdds],
+    after_miss: &[LogOdds; 256],
+    mut at: usize,
+    steps: &Steps,
+    step: (isize, isize),
+    count: u32,
+) {
+    let (column_step, row_step) = step;
+    let mut diff = steps.diff;
+    let by_sign = [
+        (steps.delta_row.wrapping_neg(), row_step),
+        (steps.delta_column, column_step),
+    ];
+    for _ in 0..count {
+        if let Some(cell) = cells.get_mut(at) {
+            *cell = after_miss[*cell as u8 as usize];
+        }
+        // One step past the last cell is computed and never used.
+        let (d, step) = by_sign[(diff as u32 >> 31) as usize];
+        diff = diff.wrapping_add(d);
+        at = at.wrapping_add_signed(step);
+    }
+}
+
+/// A 32-bit walk's difference rule, as [`free_walk`] takes it.
 #[derive(Clone, Copy)]
 struct Steps {
     diff: i32,
@@ -446,7 +540,7 @@ mod tests {
         let end = (o.x + 310, o.y + 170);
         let end_cell = (end.0 / GEO.cell_mm, end.1 / GEO.cell_mm);
         for pass in 1..=3 {
-            let written = g.free_ray(&o, end, end_cell, None);
+            let written = g.beams().free_ray(&o, end, end_cell, None);
             assert_eq!(written, Some(1 + 6 + 4), "pass {pass}");
             let floor = (pass * OTHER.miss as i32).max(-(OTHER.clamp as i32));
             assert_eq!(g.log_odds(end_cell.0, end_cell.1), Some(floor as LogOdds));
