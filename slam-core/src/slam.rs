@@ -188,7 +188,8 @@ pub struct Counters {
     /// Pictures with two known tags not used because they were older than the pose
     /// history reaches.
     pub fixes_rejected_too_old: u32,
-    /// Fixes taken against the gate after too many rejections in a row.
+    /// Fixes taken against the gate after too many rejections in a row, or (the filter)
+    /// times the heading was forgotten for them ([`crate::Estimator::forget_heading`]).
     pub relocalisations: u32,
     /// Beams written into the map.
     pub beams_mapped: u32,
@@ -252,6 +253,9 @@ pub struct Slam<const W: usize, const H: usize> {
     map: GridMap<W, H>,
     counters: Counters,
     gate_rejections_in_a_row: u8,
+    /// Whether a tag the filter's gate refused since it last took one was refused at a
+    /// range its listed place does not have.
+    refused_off_range: bool,
     estimator: Estimator,
     /// The scans of the last second, not yet in the map ([`SlamConfig::matching`]).
     #[cfg(feature = "matching")]
@@ -277,6 +281,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             map: GridMap::new(config.geometry, config.evidence),
             counters: Counters::default(),
             gate_rejections_in_a_row: 0,
+            refused_off_range: false,
             estimator: Estimator::new(config.estimator),
             #[cfg(feature = "matching")]
             sweep: Sweep::new(),
@@ -300,6 +305,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         self.map.clear();
         self.counters = Counters::default();
         self.gate_rejections_in_a_row = 0;
+        self.refused_off_range = false;
         self.estimator = Estimator::new(self.config.estimator);
         #[cfg(feature = "matching")]
         self.sweep.clear();
@@ -499,8 +505,11 @@ impl<const W: usize, const H: usize> Slam<W, H> {
                     }
                     outcome = FixOutcome::Taken;
                 }
-                Err(TagRefusal::Gate) if outcome != FixOutcome::Taken => {
-                    outcome = FixOutcome::Rejected(FixRejection::Gate);
+                Err(TagRefusal::Gate) => {
+                    self.refused_off_range |= !self.estimator.refused_at_its_range();
+                    if outcome != FixOutcome::Taken {
+                        outcome = FixOutcome::Rejected(FixRejection::Gate);
+                    }
                 }
                 Err(TagRefusal::TooOld) if outcome == FixOutcome::NotAttempted => {
                     outcome = FixOutcome::Rejected(FixRejection::TooOld);
@@ -518,9 +527,29 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         } else {
             self.estimator.settle();
         }
+        // A filter sure of its pose whose every sighting the gate refuses, picture after
+        // picture, each at the range its tag should have (a tag moved from its place
+        // shows in its range), is sure of a heading that is not the robot's: it forgets
+        // the heading, as the fix relocalises.
         match outcome {
-            FixOutcome::Taken => self.counters.fixes_taken += 1,
-            FixOutcome::Rejected(FixRejection::Gate) => self.counters.fixes_rejected_gate += 1,
+            FixOutcome::Taken => {
+                self.counters.fixes_taken += 1;
+                self.gate_rejections_in_a_row = 0;
+                self.refused_off_range = false;
+            }
+            FixOutcome::Rejected(FixRejection::Gate) => {
+                self.counters.fixes_rejected_gate += 1;
+                self.gate_rejections_in_a_row = self.gate_rejections_in_a_row.saturating_add(1);
+                let limit = self.config.fix.relocalise_after;
+                if limit != 0
+                    && self.gate_rejections_in_a_row > limit
+                    && !self.refused_off_range
+                    && self.estimator.forget_heading()
+                {
+                    self.counters.relocalisations += 1;
+                    self.gate_rejections_in_a_row = 0;
+                }
+            }
             FixOutcome::Rejected(FixRejection::TooOld) => self.counters.fixes_rejected_too_old += 1,
             _ => {}
         }

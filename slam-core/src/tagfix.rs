@@ -113,7 +113,9 @@ pub struct FixConfig {
     pub gate_heading_mdeg: u32,
     /// After this many gate rejections in a row the fix is taken anyway: the prediction,
     /// not the tags, is then the likelier liar (a stalled flow sensor, a kidnapped robot).
-    /// 0 never overrides the gate.
+    /// 0 never overrides the gate. The filter counts pictures whose every sighting the
+    /// gate refused, and past this many in a row may forget its heading instead
+    /// ([`crate::Estimator::forget_heading`]).
     pub relocalise_after: u8,
 }
 

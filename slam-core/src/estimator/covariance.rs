@@ -541,6 +541,20 @@ impl Covariance {
         self.bound_variances(floor, ceiling);
     }
 
+    /// Forgets state `i`'s correlations and raises its variance to at least `variance`
+    /// (clamped to 32 bits). Positive definite still: the matrix is then block diagonal,
+    /// state `i` alone and the rest (a principal submatrix of a definite matrix).
+    pub fn forget(&mut self, i: State, variance: i64) {
+        let i = i as usize;
+        for j in 0..N {
+            if j != i {
+                self.m[i][j] = 0;
+                self.m[j][i] = 0;
+            }
+        }
+        self.m[i][i] = self.m[i][i].max(clamp32(variance));
+    }
+
     /// Scales row and column `i` by `sqrt(ceiling / P_ii)` so that `P_ii` is `ceiling`.
     #[cold]
     fn scale_down(&mut self, i: usize, ceiling: i32) {

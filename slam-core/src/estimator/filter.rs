@@ -21,6 +21,14 @@ const GYRO_SCALE_MAX: i32 = 6_554;
 const GYRO_BIAS_MAX: i32 = 5_720;
 const FLOW_SCALE_MAX: i32 = 19_661;
 
+/// The heading's deviation after [`Estimator::forget_heading`], millidegrees.
+pub const FORGOTTEN_HEADING_MDEG: i64 = 2_000;
+/// The position's deviation within which the filter is sure enough of it to forget its
+/// heading ([`Estimator::forget_heading`]), millimetres.
+pub const SURE_POSITION_MM: i64 = 20;
+/// Updates after [`Estimator::forget_heading`] that settle the whole matrix.
+const SETTLED_FULLY_AFTER_FORGETTING: u8 = 30;
+
 /// The covariance's ceiling, as standard deviations: position 2.5 m, heading 34 degrees
 /// (past either the robot is lost, and a linear filter with it), and the calibration's
 /// limits. Each fits the matrix's 32 bits.
@@ -60,6 +68,14 @@ pub struct Estimator {
     pub(super) view_cos: i32,
     /// Which third of the correlation check [`Estimator::settle_updated`] does next.
     settle_part: u8,
+    /// Updates still to be settled in full after [`Estimator::forget_heading`].
+    settle_fully: u8,
+    /// Whether the next sighting is taken whatever the gate says
+    /// ([`Estimator::forget_heading`]).
+    pub(super) ungated: bool,
+    /// Whether the last sighting was refused by the gate at its range
+    /// ([`Estimator::refused_at_its_range`]).
+    pub(super) refused_at_its_range: bool,
 }
 
 impl Estimator {
@@ -87,6 +103,9 @@ impl Estimator {
             sighting_noise: SightingNoise::of(c),
             view_cos: Angle::from_millidegrees(i64::from(c.half_view_mdeg)).cos(),
             settle_part: 0,
+            settle_fully: 0,
+            ungated: false,
+            refused_at_its_range: false,
         };
         e.settle();
         e
@@ -244,6 +263,36 @@ impl Estimator {
         ]
     }
 
+    /// Forgets what the filter knew of the heading when it is sure of its pose (the
+    /// position within [`SURE_POSITION_MM`], the heading within
+    /// [`FORGOTTEN_HEADING_MDEG`]) and every sighting has refused it for a while: a pose
+    /// held sure against the tags, as after a gyro bias jump no tag saw. The pose's
+    /// correlations are dropped and the heading's deviation raised to
+    /// [`FORGOTTEN_HEADING_MDEG`], and the next sighting is taken past the gate, so that
+    /// it turns the robot back (its bearing is far more certain than that heading) and
+    /// the correction is not learned as a gyro error; the next updates settle the whole
+    /// matrix ([`Estimator::settle`]). A filter already unsure is left alone: its gate is
+    /// wide, and sightings still beyond it are likelier garbage, and an update of a wide,
+    /// correlated pose goes past what the fixed-point matrix keeps definite. Returns
+    /// whether it forgot.
+    pub fn forget_heading(&mut self) -> bool {
+        let position = square(units::position_from_um(SURE_POSITION_MM * 1000));
+        let heading = square(units::heading_from_mdeg(FORGOTTEN_HEADING_MDEG));
+        let sure = self.p.get(State::X, State::X) <= position
+            && self.p.get(State::Y, State::Y) <= position
+            && self.p.get(State::Heading, State::Heading) < heading;
+        if !sure {
+            return false;
+        }
+        self.p.forget(State::X, 0);
+        self.p.forget(State::Y, 0);
+        self.p.forget(State::Heading, heading);
+        self.settle();
+        self.settle_fully = SETTLED_FULLY_AFTER_FORGETTING;
+        self.ungated = true;
+        true
+    }
+
     /// Adds a correction, in fine units, to the calibration, within its limits.
     pub(super) fn correct_calibration(&mut self, fine: [i64; 3]) {
         for ((c, d), limit) in self.calibration.iter_mut().zip(fine).zip(CALIBRATION_LIMIT) {
@@ -287,6 +336,11 @@ impl Estimator {
     /// (and on every tick with no update). The check guards against the rounding of many
     /// updates, which moves a correlation far less in three ticks than its margin.
     pub fn settle_updated(&mut self) {
+        if self.settle_fully > 0 {
+            self.settle_fully -= 1;
+            self.settle();
+            return;
+        }
         let part = self.settle_part;
         self.settle_part = if part >= 2 { 0 } else { part + 1 };
         self.p.bound_part(&FLOOR, &CEILING, part);

@@ -14,6 +14,10 @@ use crate::tagfix::{CameraConfig, KnownTag};
 /// (whose entries grow as one over the range).
 const MIN_JACOBIAN_RANGE_MM: i64 = 50;
 
+/// A range innovation whose square over its variance is at most this (Q8: 9, three
+/// deviations) agrees with the tag's listed place ([`Estimator::refused_at_its_range`]).
+const RANGE_AGREES_CHI2_Q8: i64 = 100 << 8;
+
 /// Sines (Q16) below this, 0.1, take their angle from [`asin_small`].
 const ASIN_SERIES_BELOW: i64 = 6554;
 
@@ -48,6 +52,13 @@ fn normalised_square_q8(nu: i64, s: &Reciprocal) -> i64 {
 }
 
 impl Estimator {
+    /// Whether the last sighting was refused by the gate for its bearing alone: read at
+    /// the range its listed place has from the believed position. A heading gone wrong
+    /// does that to every tag; a tag moved from its place mostly shows in its range.
+    pub fn refused_at_its_range(&self) -> bool {
+        self.refused_at_its_range
+    }
+
     /// Updates the filter from one detection of `tag` (`None`: an id not in the map),
     /// seen from `then`, the pose believed when the picture was taken (`None`: older
     /// than the history). Returns the corrected pose of that moment, or why the
@@ -81,6 +92,7 @@ impl Estimator {
         camera: &CameraConfig,
         then: Option<Pose>,
     ) -> Result<Pose, TagRefusal> {
+        self.refused_at_its_range = false;
         let cfg = self.config;
         let tag = tag.ok_or(TagRefusal::UnknownId)?;
         if detection.distance_mm > cfg.max_range_mm {
@@ -186,11 +198,13 @@ impl Estimator {
         let Some(inv_bearing) = Reciprocal::of(s_bearing) else {
             return Err(TagRefusal::Gate);
         };
-        let chi2 = normalised_square_q8(nu_range, &inv_range)
-            .saturating_add(normalised_square_q8(nu_bearing, &inv_bearing));
-        if chi2 > i64::from(cfg.gate_chi2_q8) {
+        let range_chi2 = normalised_square_q8(nu_range, &inv_range);
+        let chi2 = range_chi2.saturating_add(normalised_square_q8(nu_bearing, &inv_bearing));
+        if chi2 > i64::from(cfg.gate_chi2_q8) && !self.ungated {
+            self.refused_at_its_range = range_chi2 <= RANGE_AGREES_CHI2_Q8;
             return Err(TagRefusal::Gate);
         }
+        self.ungated = false;
 
         let [k_range, k_bearing] = self
             .p
