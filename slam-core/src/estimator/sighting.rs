@@ -14,7 +14,7 @@ use crate::tagfix::{CameraConfig, KnownTag};
 /// (whose entries grow as one over the range).
 const MIN_JACOBIAN_RANGE_MM: i64 = 50;
 
-/// A range innovation whose square over its variance is at most this (Q8: 9, three
+/// A range innovation whose square over its variance is at most this (Q8: 100, ten
 /// deviations) agrees with the tag's listed place ([`Estimator::refused_at_its_range`]).
 const RANGE_AGREES_CHI2_Q8: i64 = 100 << 8;
 
