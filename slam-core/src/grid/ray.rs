@@ -270,17 +270,37 @@ impl BeamWriter<'_> {
         };
         let at = o.row as usize * self.width + o.column as usize;
         let count = 1 + columns + rows - u32::from(spare_end);
-        let column_step: isize = if dx > 0 { 1 } else { -1 };
         let width = self.width as isize;
         let row_step = if dy > 0 { width } else { -width };
-        free_walk(
-            self.cells,
-            self.after_miss,
-            at,
-            &steps,
-            (column_step, row_step),
-            count,
-        );
+        // The walk crosses the first `columns + rows` boundaries of its line in order: all
+        // those before its end, `columns` of them between columns and `rows` between rows
+        // (a tie at the end is a corner, left to `mark_free`). So it never leaves the
+        // rectangle its end cells span, whose first and last flat indices are these.
+        let (low, high) = (o.row.min(row) as usize, o.row.max(row) as usize);
+        let (left, right) = (o.column.min(column) as usize, o.column.max(column) as usize);
+        let within = (low * self.width + left, high * self.width + right);
+        if right >= self.width || within.1 >= self.cells.len() {
+            return None;
+        }
+        let walk = if dx > 0 {
+            free_walk::<true>
+        } else {
+            free_walk::<false>
+        };
+        // SAFETY: every cell of the rectangle is in `cells` (checked just above), and the
+        // walk stays in the rectangle.
+        #[allow(unsafe_code)]
+        unsafe {
+            walk(
+                self.cells,
+                self.after_miss,
+                at,
+                &steps,
+                row_step,
+                count,
+                within,
+            )
+        };
         Some(count)
     }
 
@@ -413,34 +433,78 @@ struct OriginCell {
     down: i32,
 }
 
-/// Frees `count` cells of `cells` from flat index `at`, stepping along a row or a column
-/// (`step`: the column's step, then the row's) as `steps` decides. Never inlined: alone,
-/// its state nearly fits the M0+'s registers. Each step is looked up by the difference's
-/// sign bit, which the M0+ does in fewer cycles than the compare-and-select the compiler
-/// makes of an `if`.
+/// Frees `count` cells from `cell`, a step to the right (`RIGHT`) or left along a row or
+/// `row_step` cells along a column as `steps` decides.
+///
+/// No check per cell: the M0+ would spend as long on it as on the cell. Each loop runs
+/// one axis's steps with only that axis's values live, so that all of them stay in the
+/// seven registers the M0+ has for them. Never inlined, for the same reason.
+///
+/// # Safety
+///
+/// Every cell the walk visits is in `cells`. `within` holds the first and last flat
+/// indices the caller has proved it visits; test builds check each cell against them.
 #[inline(never)]
-fn free_walk(
+#[allow(unsafe_code)]
+unsafe fn free_walk<const RIGHT: bool>(
     cells: &mut [LogOdds],
     after_miss: &[LogOdds; 256],
-    mut at: usize,
+    at: usize,
     steps: &Steps,
-    step: (isize, isize),
+    row_step: isize,
     count: u32,
+    within: (usize, usize),
 ) {
-    let (column_step, row_step) = step;
+    if count == 0 {
+        return;
+    }
+    let (delta_column, delta_row) = (steps.delta_column, steps.delta_row);
     let mut diff = steps.diff;
-    let by_sign = [
-        (steps.delta_row.wrapping_neg(), row_step),
-        (steps.delta_column, column_step),
-    ];
-    for _ in 0..count {
-        if let Some(cell) = cells.get_mut(at) {
+    let mut left = count;
+    let base = cells.as_mut_ptr();
+    let mut cell = base.wrapping_add(at);
+    let free = |cell: *mut LogOdds| {
+        if cfg!(any(test, debug_assertions)) {
+            let at = (cell as usize).wrapping_sub(base as usize);
+            assert!(
+                (within.0..=within.1).contains(&at) && within.1 < cells.len(),
+                "cell {at} outside {within:?}"
+            );
+        }
+        // SAFETY: `cell` is in `cells` (this function's contract), which is borrowed
+        // mutably here.
+        unsafe {
             *cell = after_miss[*cell as u8 as usize];
         }
-        // One step past the last cell is computed and never used.
-        let (d, step) = by_sign[(diff as u32 >> 31) as usize];
-        diff = diff.wrapping_add(d);
-        at = at.wrapping_add_signed(step);
+    };
+    // The count is tested before the difference moves, so that the sign test reads the
+    // flags of its update. One step past the last cell is never taken.
+    loop {
+        while diff < 0 {
+            free(cell);
+            left -= 1;
+            if left == 0 {
+                return;
+            }
+            cell = if RIGHT {
+                cell.wrapping_add(1)
+            } else {
+                cell.wrapping_sub(1)
+            };
+            diff = diff.wrapping_add(delta_column);
+        }
+        loop {
+            free(cell);
+            left -= 1;
+            if left == 0 {
+                return;
+            }
+            cell = cell.wrapping_offset(row_step);
+            diff = diff.wrapping_sub(delta_row);
+            if diff < 0 {
+                break;
+            }
+        }
     }
 }
 
@@ -571,6 +635,50 @@ mod tests {
                     assert_beam_as_plain(from, to, to, true);
                 }
             }
+        }
+    }
+
+    #[test]
+    fn walks_to_the_grids_edges_stay_in_its_cells() {
+        // A grid exactly its size (the last cell is the slice's last byte): beams from
+        // cells near every side to every edge cell, most of them taking the unchecked walk
+        // (whose test build checks each cell against the rectangle it was proved to stay
+        // in), write what the plain walk writes.
+        const W: usize = 20;
+        const H: usize = 12;
+        let cell = GEO.cell_mm;
+        let mm = |c: i32, r: i32, x: i32, y: i32| {
+            (
+                GEO.origin_x_mm + c * cell + x,
+                GEO.origin_y_mm + r * cell + y,
+            )
+        };
+        let edges = (0..W as i32)
+            .flat_map(|c| [(c, 0), (c, H as i32 - 1)])
+            .chain((0..H as i32).flat_map(|r| [(0, r), (W as i32 - 1, r)]));
+        let froms = [(0, 0), (19, 11), (3, 10), (18, 1), (9, 6)];
+        for (c0, r0) in froms {
+            let mut fast: GridMap<W, H> = GridMap::new(GEO, Evidence::SEED);
+            let mut plain: GridMap<W, H> = GridMap::new(GEO, Evidence::SEED);
+            for (i, (c, r)) in edges.clone().enumerate() {
+                let i = i as i32;
+                let from = mm(c0, r0, 7 + i % 37, 43 - i % 29);
+                let to = mm(c, r, 1 + (i * 7) % 48, 48 - (i * 11) % 47);
+                let hit = i % 3 != 0;
+                let n = fast.insert_beam(from, to, to, hit);
+                let hit_cell = GEO.cell_of(to.0, to.1);
+                let mut m = 0;
+                for (c, r) in CellWalk::new(&GEO, from, to) {
+                    if !(hit && (c, r) == hit_cell) && plain.add(c, r, Evidence::SEED.miss) {
+                        m += 1;
+                    }
+                }
+                if hit && plain.add(hit_cell.0, hit_cell.1, Evidence::SEED.hit) {
+                    m += 1;
+                }
+                assert_eq!(n, m, "{from:?} -> {to:?}");
+            }
+            assert_eq!(fast.rows(), plain.rows(), "from cell ({c0}, {r0})");
         }
     }
 
