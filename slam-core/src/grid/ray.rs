@@ -1,7 +1,7 @@
 //! Writing a depth beam into the grid: free along it, occupied where it stopped.
 //!
-//! A beam from inside the grid and shorter than [`SHORT_WALK_MM`] takes a specialised loop
-//! (`free_ray` and `free_walk`); anything else takes the general walk (`mark_free`).
+//! A beam from inside the grid whose ends are in it takes a specialised loop (`short_ray`
+//! and `free_walk`); anything else takes the general walk (`mark_free`).
 //!
 //! The beam code works on a [`BeamWriter`], the grid's cells as a slice with their width,
 //! not on `GridMap<W, H>`: code generic over the grid's size is built in the crate that
@@ -16,7 +16,9 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
     /// The grid as its beams write it: cells, width and rules, without the size in the
     /// type. For writing a scan's beams one after another.
     pub fn beams(&mut self) -> BeamWriter<'_> {
+        let walks_fit = self.columns as usize <= W && self.rows as usize <= H;
         BeamWriter {
+            walks_fit,
             geometry: self.geometry,
             evidence: self.evidence,
             divider: &self.divider,
@@ -74,6 +76,9 @@ pub struct BeamWriter<'a> {
     /// Cells in a row of `cells`.
     width: usize,
     cells: &'a mut [LogOdds],
+    /// Every cell in use is in `cells`: `columns <= width` and `rows` rows of `width`
+    /// cells fit it. `short_ray`'s unchecked walk relies on it.
+    walks_fit: bool,
 }
 
 /// [`GridMap::beam_origin`] for a grid of `extent` columns and rows in use.
@@ -90,11 +95,12 @@ fn beam_origin(
         );
         let (column, row) = (divider.fast_floor(x)?, divider.fast_floor(y)?);
         let inside = (column as u32) < extent.0 && (row as u32) < extent.1;
-        if !inside || g.cell_mm >= SHORT_WALK_MM as i32 {
+        if !inside || !(1..SHORT_WALK_MM as i32).contains(&g.cell_mm) {
             return None;
         }
         let (left, down) = (x - column * g.cell_mm, y - row * g.cell_mm);
         Some(OriginCell {
+            cell_mm: g.cell_mm,
             x,
             y,
             column,
@@ -144,7 +150,7 @@ impl BeamWriter<'_> {
     /// Marks the cells of `walk` free but for `spared`; returns how many were inside the
     /// grid.
     ///
-    /// Any walk: beams take [`BeamWriter::free_ray`] first, which leaves here only what its
+    /// Any walk: beams take [`BeamWriter::short_ray`] first, which leaves here only what its
     /// loop does not cover. When both end cells are in the grid, so is every cell between
     /// (the walk never leaves their bounding box), and the loop steps a flat index instead
     /// of checking each cell's column and row. Never inlined: inside a large caller (the
@@ -217,36 +223,57 @@ impl BeamWriter<'_> {
         visited - u32::from(spared == SEEN)
     }
 
-    /// Frees a beam's walk from `o`'s cell to `end` (millimetres from the grid's
-    /// corner, in the grid, less than [`SHORT_WALK_MM`] from the start along each axis),
-    /// sparing `spared`; `None` when the walk needs [`BeamWriter::mark_free`] instead.
+    /// Writes a beam from `o`'s cell whose free cells end `free` millimetres away and
+    /// which stopped `to` away, the common case by [`free_walk`]; `None` (having written
+    /// nothing) when it needs the general walk instead: an end outside the grid or more
+    /// than 2^15 mm from its corner, a free end on a cell corner, or a hit cell on the
+    /// walk before its end.
     ///
-    /// The common case in one loop with one counter, specialised by direction, which the
-    /// Cortex-M0+ runs from its registers. The walk crosses exactly the first
-    /// `columns + rows` boundaries of its line in the order of `Walk::advance`'s
-    /// difference rule; `advance` also counts boundaries per axis only to end a segment
-    /// that stops exactly on a cell corner in its own cell. Such a walk, a spared cell
-    /// anywhere but the end (a beam's hit cell is further along the same ray, so it is on
-    /// the walk only as its end cell), is left to `mark_free`.
+    /// The walk crosses exactly the first `columns + rows` boundaries of its line in the
+    /// order of `Walk::advance`'s difference rule; `advance` also counts boundaries per axis
+    /// only to end a segment that stops exactly on a cell corner in its own cell, which is
+    /// left to `mark_free`, and so is a spared cell anywhere but the end (a beam's hit cell
+    /// is further along the same ray, so it is on the walk only as its end cell).
     #[inline(always)]
-    fn free_ray(
+    fn short_ray(
         &mut self,
         o: &OriginCell,
-        end: (i32, i32),
-        cell_of_end: (i32, i32),
-        spared: Option<(i32, i32)>,
+        free: (i32, i32),
+        to: (i32, i32),
+        hit: bool,
     ) -> Option<u32> {
         let cell = self.geometry.cell_mm;
-        let (column, row) = cell_of_end;
-        let (dx, dy) = (end.0 - o.x, end.1 - o.y);
-        let spare_end = spared == Some(cell_of_end);
-        let between = |v: i32, a: i32, b: i32| a.min(b) <= v && v <= a.max(b);
-        let spared_on_the_way = !spare_end
-            && spared.is_some_and(|(c, r)| between(c, o.column, column) && between(r, o.row, row));
-        let on_corner = column * cell == end.0 && row * cell == end.1;
-        if on_corner || spared_on_the_way {
+        // `o` was worked out for this cell size, and its cell is in use here.
+        if o.cell_mm != cell || !self.inside(o.column, o.row) || !self.walks_fit {
             return None;
         }
+        // A wrapped sum lands within 2^15 of the corner only when the true sum does, so
+        // `free` and `to` are the ends' true offsets from the start (under 2^15 each way).
+        let end = (o.x.wrapping_add(free.0), o.y.wrapping_add(free.1));
+        let divider = self.divider;
+        let cell_of = |p: (i32, i32)| Some((divider.fast_floor(p.0)?, divider.fast_floor(p.1)?));
+        let (column, row) = cell_of(end).filter(|&(c, r)| self.inside(c, r))?;
+        if column * cell == end.0 && row * cell == end.1 {
+            return None;
+        }
+        let spared = if hit {
+            Some(cell_of((o.x.wrapping_add(to.0), o.y.wrapping_add(to.1)))?)
+        } else {
+            None
+        };
+        let spare_end = spared == Some((column, row));
+        let between = |v: i32, a: i32, b: i32| a.min(b) <= v && v <= a.max(b);
+        if !spare_end
+            && spared.is_some_and(|(c, r)| between(c, o.column, column) && between(r, o.row, row))
+        {
+            return None;
+        }
+        // Off the walk (or spared on it), the hit cell is written first.
+        let mut written = 0;
+        if let Some((c, r)) = spared {
+            written = u32::from(self.add(c, r, self.evidence.hit));
+        }
+        let (dx, dy) = free;
         let (columns, rows) = (column.abs_diff(o.column), row.abs_diff(o.row));
         let (adx, ady) = (dx.abs(), dy.abs());
         // Along one axis only, the difference must always pick that axis.
@@ -268,40 +295,34 @@ impl BeamWriter<'_> {
                 delta_row: cell * adx,
             },
         };
-        let at = o.row as usize * self.width + o.column as usize;
         let count = 1 + columns + rows - u32::from(spare_end);
-        let width = self.width as isize;
-        let row_step = if dy > 0 { width } else { -width };
-        // The walk crosses the first `columns + rows` boundaries of its line in order: all
-        // those before its end, `columns` of them between columns and `rows` between rows
-        // (a tie at the end is a corner, left to `mark_free`). So it never leaves the
-        // rectangle its end cells span, whose first and last flat indices are these.
-        let (low, high) = (o.row.min(row) as usize, o.row.max(row) as usize);
-        let (left, right) = (o.column.min(column) as usize, o.column.max(column) as usize);
-        let within = (low * self.width + left, high * self.width + right);
-        if right >= self.width || within.1 >= self.cells.len() {
-            return None;
-        }
+        let width = self.width;
+        let at = o.row as usize * width + o.column as usize;
+        let end_at = row as usize * width + column as usize;
+        let row_step = if dy > 0 {
+            width as isize
+        } else {
+            -(width as isize)
+        };
         let walk = if dx > 0 {
             free_walk::<true>
         } else {
             free_walk::<false>
         };
-        // SAFETY: every cell of the rectangle is in `cells` (checked just above), and the
-        // walk stays in the rectangle.
+        // SAFETY: the walk stays in the rectangle its end cells span (above), and both are
+        // in use, so every cell of it is in `cells` (`walks_fit`).
         #[allow(unsafe_code)]
         unsafe {
             walk(
                 self.cells,
                 self.after_miss,
-                at,
+                (at, end_at),
                 &steps,
                 row_step,
                 count,
-                within,
             )
         };
-        Some(count)
+        Some(written + count)
     }
 
     /// Writes one beam: free along it, occupied where it stopped.
@@ -329,7 +350,7 @@ impl BeamWriter<'_> {
     /// [`BeamWriter::insert_beam`] for a beam from `start`: its free cells end `free`
     /// millimetres away (`dx`, `dy`), and it stopped `to` away.
     ///
-    /// Never inlined, with `free_ray` inlined into it: a beam's set-up then has a frame of
+    /// Never inlined, with `short_ray` inlined into it: a beam's set-up then has a frame of
     /// its own, not the caller's crowded one, where its values would go through the stack
     /// on the Cortex-M0+.
     #[inline(never)]
@@ -340,32 +361,14 @@ impl BeamWriter<'_> {
         to: (i32, i32),
         hit: bool,
     ) -> u32 {
-        let short = |d: (i32, i32)| {
-            let limit = SHORT_WALK_MM as u32;
-            d.0.unsigned_abs() < limit && d.1.unsigned_abs() < limit
-        };
-        let Some(o) = start.cell.as_ref().filter(|_| short(free) && short(to)) else {
-            return self.insert_beam_any_along(start.map_mm, free, to, hit);
-        };
-        // Both under 2^15 from the grid's corner: the sums cannot overflow.
-        let end = (o.x + free.0, o.y + free.1);
-        let stop = (o.x + to.0, o.y + to.1);
-        let divider = self.divider;
-        let cell_of = |p: (i32, i32)| Some((divider.fast_floor(p.0)?, divider.fast_floor(p.1)?));
-        let (Some(end_cell), Some(hit_cell)) = (
-            cell_of(end).filter(|&(c, r)| self.inside(c, r)),
-            cell_of(stop),
-        ) else {
-            return self.insert_beam_any_along(start.map_mm, free, to, hit);
-        };
-        let spared = hit.then_some(hit_cell);
-        let Some(mut written) = self.free_ray(o, end, end_cell, spared) else {
-            return self.insert_beam_any_along(start.map_mm, free, to, hit);
-        };
-        if hit && self.add(hit_cell.0, hit_cell.1, self.evidence.hit) {
-            written += 1;
+        let short = start
+            .cell
+            .as_ref()
+            .and_then(|o| self.short_ray(o, free, to, hit));
+        match short {
+            Some(written) => written,
+            None => self.insert_beam_any_along(start.map_mm, free, to, hit),
         }
-        written
     }
 
     /// [`BeamWriter::insert_beam_any`] with the ends given from `from`.
@@ -421,6 +424,8 @@ pub struct BeamOrigin {
 /// The cell a beam starts in, and where in it.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 struct OriginCell {
+    /// The cell size it was worked out for.
+    cell_mm: i32,
     /// Millimetres from the grid's corner.
     x: i32,
     y: i32,
@@ -433,8 +438,9 @@ struct OriginCell {
     down: i32,
 }
 
-/// Frees `count` cells from `cell`, a step to the right (`RIGHT`) or left along a row or
-/// `row_step` cells along a column as `steps` decides.
+/// Frees `count` cells from flat index `ends.0`, a step to the right (`RIGHT`) or left
+/// along a row or `row_step` cells along a column as `steps` decides, towards the cell at
+/// `ends.1`.
 ///
 /// No check per cell: the M0+ would spend as long on it as on the cell. Each loop runs
 /// one axis's steps with only that axis's values live, so that all of them stay in the
@@ -442,18 +448,18 @@ struct OriginCell {
 ///
 /// # Safety
 ///
-/// Every cell the walk visits is in `cells`. `within` holds the first and last flat
-/// indices the caller has proved it visits; test builds check each cell against them.
+/// Every cell the walk visits is in `cells`: the caller has proved that it stays in the
+/// rectangle its end cells span, rows of `row_step.unsigned_abs()` cells, and that the
+/// rectangle is in `cells`. Test builds check each cell against that rectangle.
 #[inline(never)]
 #[allow(unsafe_code)]
 unsafe fn free_walk<const RIGHT: bool>(
     cells: &mut [LogOdds],
     after_miss: &[LogOdds; 256],
-    at: usize,
+    ends: (usize, usize),
     steps: &Steps,
     row_step: isize,
     count: u32,
-    within: (usize, usize),
 ) {
     if count == 0 {
         return;
@@ -462,13 +468,20 @@ unsafe fn free_walk<const RIGHT: bool>(
     let mut diff = steps.diff;
     let mut left = count;
     let base = cells.as_mut_ptr();
-    let mut cell = base.wrapping_add(at);
+    let mut cell = base.wrapping_add(ends.0);
     let free = |cell: *mut LogOdds| {
         if cfg!(any(test, debug_assertions)) {
             let at = (cell as usize).wrapping_sub(base as usize);
+            let width = row_step.unsigned_abs();
+            let (column, row) = (at % width, at / width);
+            let spans = |v: usize, a: usize, b: usize| a.min(b) <= v && v <= a.max(b);
             assert!(
-                (within.0..=within.1).contains(&at) && within.1 < cells.len(),
-                "cell {at} outside {within:?}"
+                spans(column, ends.0 % width, ends.1 % width)
+                    && spans(row, ends.0 / width, ends.1 / width)
+                    && at < cells.len(),
+                "cell {at} outside the walk from {} to {}",
+                ends.0,
+                ends.1
             );
         }
         // SAFETY: `cell` is in `cells` (this function's contract), which is borrowed
@@ -604,7 +617,7 @@ mod tests {
         let end = (o.x + 310, o.y + 170);
         let end_cell = (end.0 / GEO.cell_mm, end.1 / GEO.cell_mm);
         for pass in 1..=3 {
-            let written = g.beams().free_ray(&o, end, end_cell, None);
+            let written = g.beams().short_ray(&o, (310, 170), (310, 170), false);
             assert_eq!(written, Some(1 + 6 + 4), "pass {pass}");
             let floor = (pass * OTHER.miss as i32).max(-(OTHER.clamp as i32));
             assert_eq!(g.log_odds(end_cell.0, end_cell.1), Some(floor as LogOdds));
