@@ -3,10 +3,11 @@
 //! has no divider at all. Products of operands that fit 32 bits take the fast path; a
 //! division happens once per scalar update, as a reciprocal every gain then multiplies by.
 
-/// Whether `x` fits an `i32`.
+/// Whether `x` fits an `i32`: its high word is its low word's sign (a shift and a
+/// compare on the M0+, with no constants to hold).
 #[inline]
 pub const fn fits_i32(x: i64) -> bool {
-    x >= i32::MIN as i64 && x <= i32::MAX as i64
+    x as i32 as i64 == x
 }
 
 /// `a * b` for 32-bit `a` and `b`, from four 16 x 16 products: the M0+ multiplies only
@@ -116,10 +117,23 @@ fn round_mul_each<const L: usize>(
     // separate loops: each then keeps fewer values live than the M0+ has registers.
     let half = half_of_shift(shift);
     if shift < 32 {
+        // The bias fits 32 bits: one register, not two.
+        let half = half as u32;
         v.map(|v| {
-            round_mul_one(v, m, negative, half, &other, |hi, lo| {
-                (u64::from(hi >> shift) << 32) | u64::from((lo >> shift) | (hi << (32 - shift)))
-            })
+            if !fits_i32(v) {
+                return other(v);
+            }
+            let below = (v < 0) != negative;
+            let bias = if below { half - 1 } else { half };
+            let p = wide_mul_unsigned((v as i32).unsigned_abs(), m) + u64::from(bias);
+            let (hi, lo) = ((p >> 32) as u32, p as u32);
+            let q =
+                (u64::from(hi >> shift) << 32) | u64::from((lo >> shift) | (hi << (32 - shift)));
+            if below {
+                -(q as i64)
+            } else {
+                q as i64
+            }
         })
     } else {
         let high_shift = shift - 32;
