@@ -304,23 +304,16 @@ impl BeamWriter<'_> {
         } else {
             -(width as isize)
         };
-        let walk = if dx > 0 {
-            free_walk::<true>
-        } else {
-            free_walk::<false>
-        };
+        let ends = (at, end_at);
         // SAFETY: the walk stays in the rectangle its end cells span (above), and both are
         // in use, so every cell of it is in `cells` (`walks_fit`).
         #[allow(unsafe_code)]
         unsafe {
-            walk(
-                self.cells,
-                self.after_miss,
-                (at, end_at),
-                &steps,
-                row_step,
-                count,
-            )
+            if dx > 0 {
+                free_walk::<true>(self.cells, self.after_miss, ends, &steps, row_step, count)
+            } else {
+                free_walk::<false>(self.cells, self.after_miss, ends, &steps, row_step, count)
+            }
         };
         Some(written + count)
     }
@@ -350,9 +343,9 @@ impl BeamWriter<'_> {
     /// [`BeamWriter::insert_beam`] for a beam from `start`: its free cells end `free`
     /// millimetres away (`dx`, `dy`), and it stopped `to` away.
     ///
-    /// Never inlined, with `short_ray` inlined into it: a beam's set-up then has a frame of
-    /// its own, not the caller's crowded one, where its values would go through the stack
-    /// on the Cortex-M0+.
+    /// Never inlined, with `short_ray` (and its walk) inlined into it: a beam's set-up then
+    /// has a frame of its own, not the caller's crowded one, where its values would go
+    /// through the stack on the Cortex-M0+.
     #[inline(never)]
     pub fn insert_ray(
         &mut self,
@@ -444,14 +437,16 @@ struct OriginCell {
 ///
 /// No check per cell: the M0+ would spend as long on it as on the cell. Each loop runs
 /// one axis's steps with only that axis's values live, so that all of them stay in the
-/// seven registers the M0+ has for them. Never inlined, for the same reason.
+/// seven registers the M0+ has for them. Inlined into `short_ray`, the end of the
+/// beam's set-up, where the set-up's own values are no longer live: a call would cost
+/// its arguments' trip through the stack and a frame of its own.
 ///
 /// # Safety
 ///
 /// Every cell the walk visits is in `cells`: the caller has proved that it stays in the
 /// rectangle its end cells span, rows of `row_step.unsigned_abs()` cells, and that the
 /// rectangle is in `cells`. Test builds check each cell against that rectangle.
-#[inline(never)]
+#[inline(always)]
 #[allow(unsafe_code)]
 unsafe fn free_walk<const RIGHT: bool>(
     cells: &mut [LogOdds],
