@@ -48,7 +48,7 @@ use drivers::motors::{HBridge, MotorConfig, Motors, PerMille};
 use embassy_rp::pwm::{self, Pwm, PwmError, PwmOutput};
 use embassy_time::{Duration, Instant, Ticker};
 use portable_atomic::{AtomicI32, AtomicU32, Ordering};
-use slam_core::{Decision, Input};
+use slam_core::{Decision, DriveCommand, Input};
 
 use crate::board::{MotorPins, MOTOR_PWM_TOP};
 use crate::health::HEALTH;
@@ -107,6 +107,25 @@ pub enum Leg {
 /// The forward speed of the drive leg being driven, or while turning of the next one,
 /// millimetres per second (0: none left): what the SLAM task asks the guard about.
 pub static DRIVE_SPEED_MM_S: AtomicI32 = AtomicI32::new(0);
+
+/// What the motors are driven with now (after a hold, a stop or a halt: nothing), for
+/// the core to check the gyro against: forward speed in mm/s and turn rate in mdps.
+static COMMANDED_SPEED_MM_S: AtomicI32 = AtomicI32::new(0);
+static COMMANDED_TURN_MDPS: AtomicI32 = AtomicI32::new(0);
+
+/// What the motors are driven with now, as [`slam_core::SensorFrame::commanded`] wants it.
+pub fn commanded() -> DriveCommand {
+    DriveCommand {
+        speed_mm_s: COMMANDED_SPEED_MM_S.load(Ordering::Relaxed),
+        turn_mdps: COMMANDED_TURN_MDPS.load(Ordering::Relaxed),
+    }
+}
+
+/// Records what the motors are driven with.
+fn publish(command: DriveCommand) {
+    COMMANDED_SPEED_MM_S.store(command.speed_mm_s, Ordering::Relaxed);
+    COMMANDED_TURN_MDPS.store(command.turn_mdps, Ordering::Relaxed);
+}
 
 /// Where the route is (a [`RoutePoint`]'s bits): set by this task as it goes, read by the
 /// SLAM loop at the end of each tick into the retained state, so that a watchdog reset
@@ -260,7 +279,10 @@ impl Pilot<'_> {
         let direction = if mdeg >= 0 { 1 } else { -1 };
         let done = i64::from(done);
         let mdeg = (mdeg.abs() - done).max(0) * direction;
-        let command = turn_permille(rate_mdps.abs() * direction);
+        let command = DriveCommand {
+            speed_mm_s: 0,
+            turn_mdps: i32::try_from(rate_mdps.abs() * direction).unwrap_or(0),
+        };
         let planned_ms = mdeg.abs() * 1000 / rate_mdps.abs().max(1);
         let limit =
             Duration::from_millis(u64::try_from(planned_ms * 2).unwrap_or(u64::MAX)) + TURN_GRACE;
@@ -284,7 +306,7 @@ impl Pilot<'_> {
             if holding {
                 self.coast();
             } else {
-                self.command(0, command);
+                self.command(command);
             }
             ticker.next().await;
             if holding {
@@ -297,7 +319,10 @@ impl Pilot<'_> {
     /// Drives leg `leg` at `speed_mm_s` for `time` of running (halts do not count), `done`
     /// milliseconds of which are driven already, or until the guard stops it.
     async fn drive(&mut self, leg: usize, time: Duration, done: u32, speed_mm_s: i64) {
-        let command = forward_permille(speed_mm_s);
+        let command = DriveCommand {
+            speed_mm_s: i32::try_from(speed_mm_s).unwrap_or(0),
+            turn_mdps: 0,
+        };
         let mut driven = Duration::from_millis(u64::from(done));
         let mut ticker = Ticker::every(CONTROL_PERIOD);
         let mut previous = Instant::now();
@@ -317,7 +342,7 @@ impl Pilot<'_> {
                     false
                 }
                 Decision::Go => {
-                    self.command(command, 0);
+                    self.command(command);
                     !self.halted
                 }
             };
@@ -332,9 +357,9 @@ impl Pilot<'_> {
         self.coast();
     }
 
-    /// Applies `forward`/`turn` (per mille) unless the SLAM loop has gone quiet, in which
-    /// case the motors coast until it reports again.
-    fn command(&mut self, forward: i64, turn: i64) {
+    /// Drives `command` unless the SLAM loop has gone quiet, in which case the motors
+    /// coast until it reports again.
+    fn command(&mut self, command: DriveCommand) {
         self.listen();
         let silent = self.last_report.elapsed() > SLAM_SILENCE;
         if silent {
@@ -350,8 +375,11 @@ impl Pilot<'_> {
             defmt::info!("motion: SLAM reports back; resuming");
             self.halted = false;
         }
+        let forward = forward_permille(i64::from(command.speed_mm_s));
+        let turn = turn_permille(i64::from(command.turn_mdps));
         let forward = PerMille::saturating(i32::try_from(forward).unwrap_or(0));
         let turn = PerMille::saturating(i32::try_from(turn).unwrap_or(0));
+        publish(command);
         let result: Result<_, drivers::motors::Error<PwmError>> = self.motors.drive(forward, turn);
         if result.is_err() {
             HEALTH.motor_errors.bump();
@@ -368,6 +396,7 @@ impl Pilot<'_> {
 
     /// Both motors coast.
     fn coast(&mut self) {
+        publish(DriveCommand::default());
         if self.motors.stop().is_err() {
             HEALTH.motor_errors.bump();
         }

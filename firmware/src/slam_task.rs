@@ -247,6 +247,7 @@ pub async fn slam_task(
 
         // Each input: `None` (stale) unless its task published since the last tick.
         let mut frame = SensorFrame::empty(dt_us.saturating_add(unseen_us));
+        frame.commanded = Some(crate::motion::commanded());
         frame.flow = inputs.flow.take();
         let gyro = inputs.gyro.take();
         frame.gyro = gyro.map(|g| g.rate);

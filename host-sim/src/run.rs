@@ -128,6 +128,16 @@ pub enum TagAge {
     Hidden,
 }
 
+/// Whether the core is told what the motors were driven with.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Commands {
+    /// Every tick, as the firmware tells it: the gyro is checked against it.
+    #[default]
+    Reported,
+    /// Never, as before frames carried it: for measuring what the check buys.
+    Hidden,
+}
+
 /// Whether the route consults the guard ([`slam_core::guard`]) before each tick's drive.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Guarding {
@@ -347,6 +357,8 @@ pub struct RunOptions<'a> {
     pub telemetry: Option<&'a mut TelemetryWriter>,
     /// Sensor faults to inject into what the core reads.
     pub faults: &'a [Fault],
+    /// Whether the core is told the motors' commands.
+    pub commands: Commands,
 }
 
 /// [`run`] with `options`.
@@ -410,6 +422,7 @@ fn run_sized<const W: usize, const H: usize>(
         guarding,
         mut telemetry,
         faults,
+        commands,
     } = options;
     let mut injector = Injector::new(faults, seed);
     let guard = guard_config(scenario);
@@ -439,6 +452,8 @@ fn run_sized<const W: usize, const H: usize>(
         TagAge::Reported => u32::try_from(robot.camera_latency_us()).unwrap_or(u32::MAX),
         TagAge::Hidden => 0,
     };
+    // What the motors were driven with since the last frame: before the first, nothing.
+    let mut driven = Command::default();
     while let Some(command) = route.command() {
         if robot.time_s() > MAX_RUN_S {
             route_cut_at_s = Some(robot.time_s());
@@ -456,6 +471,7 @@ fn run_sized<const W: usize, const H: usize>(
             tags: robot.read_tags(),
             tags_age_us,
             external_pose: (mode == PoseMode::Truth).then(|| to_core_pose(&truth)),
+            commanded: (commands == Commands::Reported).then(|| drive_command(&driven)),
         };
         injector.apply(robot.time_s(), &mut frame);
         let report = slam.step(&frame);
@@ -513,6 +529,7 @@ fn run_sized<const W: usize, const H: usize>(
         tick.out_of_place_pct = out_of_place_pct;
         ticks.push(tick);
         robot.advance(TICK_S, command);
+        driven = command;
         route.after_tick(robot.truth(), TICK_S);
     }
 

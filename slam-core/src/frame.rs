@@ -35,6 +35,17 @@ pub struct DepthScan {
     pub ranges_mm: [Option<u16>; BEAMS],
 }
 
+/// What the motors are asked for: the guard judges the one about to be driven, the
+/// plausibility checks the one that was ([`SensorFrame::commanded`]).
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct DriveCommand {
+    /// Forward speed, millimetres per second (negative: backwards).
+    pub speed_mm_s: i32,
+    /// Turn rate, millidegrees per second, positive clockwise.
+    pub turn_mdps: i32,
+}
+
 /// One AprilTag the camera read.
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -78,6 +89,10 @@ pub struct SensorFrame {
     /// A pose from outside (a lab's overhead camera, the simulator's truth): when present it
     /// replaces odometry and tag fixes, and the scan is mapped at it.
     pub external_pose: Option<crate::Pose>,
+    /// What the motors were driven with as this frame's interval ended (after the guard:
+    /// a held or stopped motion is the zero command), or `None` if the caller does not
+    /// say; the gyro is then not checked against it ([`crate::commanded`]).
+    pub commanded: Option<DriveCommand>,
 }
 
 impl SensorFrame {
@@ -92,6 +107,7 @@ impl SensorFrame {
             tags: TagDetections::new(),
             tags_age_us: 0,
             external_pose: None,
+            commanded: None,
         }
     }
 }

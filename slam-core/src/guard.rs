@@ -41,7 +41,7 @@
 //! estimate agree even when both are off the truth.
 
 use crate::angle::{Angle, TRIG_ONE};
-use crate::frame::{DepthScan, BEAMS};
+use crate::frame::{DepthScan, DriveCommand, BEAMS};
 use crate::grid::{GridMap, Occupancy};
 use crate::plausible::{Input, Trust};
 use crate::pose::Pose;
@@ -95,16 +95,6 @@ impl Default for GuardConfig {
     fn default() -> Self {
         GuardConfig::SEED
     }
-}
-
-/// What the motors are about to be asked for over the next tick.
-#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct DriveCommand {
-    /// Forward speed, millimetres per second (negative: backwards).
-    pub speed_mm_s: i32,
-    /// Turn rate, millidegrees per second, positive clockwise.
-    pub turn_mdps: i32,
 }
 
 /// What stands in the way.

@@ -12,6 +12,7 @@
 #![warn(missing_docs)]
 
 pub mod angle;
+pub mod commanded;
 pub mod estimator;
 pub mod frame;
 pub mod grid;
@@ -31,10 +32,11 @@ pub use estimator::{
     Calibration, Estimate, Estimator, EstimatorConfig, PoseCovariance, TagCounters, TagRefusal,
 };
 pub use frame::{
-    DepthScan, FlowDelta, GyroRate, SensorFrame, TagDetection, TagDetections, BEAMS, MAX_TAGS,
+    DepthScan, DriveCommand, FlowDelta, GyroRate, SensorFrame, TagDetection, TagDetections, BEAMS,
+    MAX_TAGS,
 };
 pub use grid::{Evidence, GridGeometry, GridMap, LogOdds, Occupancy, OccupancyCounts};
-pub use guard::{decide, Decision, DriveCommand, GuardConfig, Obstacle};
+pub use guard::{decide, Decision, GuardConfig, Obstacle};
 pub use odometry::OdometryConfig;
 pub use plausible::{Doubt, Input, PlausibleConfig, Trust};
 pub use pose::Pose;

@@ -3,8 +3,8 @@
 //!
 //! A reading can be there and still be wrong: a gyro stuck on one value, a rate or a
 //! flow no robot can make, a reading that moves while the robot was told to stand,
-//! depth frames that repeat bit for bit. Each check here turns one reading into a
-//! verdict; [`Plausibility`] keeps, per input, whether it is trusted: an input is doubted
+//! depth frames that repeat bit for bit, a turn the motors were not asked for
+//! ([`crate::commanded`]). Each check here turns one reading into a verdict; [`Plausibility`] keeps, per input, whether it is trusted: an input is doubted
 //! from its first implausible (or, for the gyro and the flow, missing) reading and
 //! trusted again after [`PlausibleConfig::trust_after_ticks`] plausible readings in a row.
 //!
@@ -14,7 +14,8 @@
 //! last trusted reading stands in for it. A tag that disagrees with the estimate is the
 //! estimator's gate's to refuse (`crate::estimator`).
 
-use crate::frame::{DepthScan, FlowDelta, GyroRate, BEAMS};
+use crate::commanded::{check_gyro_commanded, CommandTolerance, RecentCommands};
+use crate::frame::{DepthScan, DriveCommand, FlowDelta, GyroRate, BEAMS};
 
 /// The limits the checks hold the readings to.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -39,6 +40,8 @@ pub struct PlausibleConfig {
     pub max_depth_mm: u16,
     /// Plausible readings in a row before a doubted input is trusted again.
     pub trust_after_ticks: u8,
+    /// How far the gyro may read beyond the commanded motion.
+    pub command: CommandTolerance,
 }
 
 impl PlausibleConfig {
@@ -55,6 +58,7 @@ impl PlausibleConfig {
         stuck_ticks: 5,
         max_depth_mm: 4_500,
         trust_after_ticks: 3,
+        command: CommandTolerance::SEED,
     };
 }
 
@@ -78,19 +82,22 @@ pub enum Doubt {
     Jump,
     /// Motion read while the robot was held still.
     MovedWhileHeld,
+    /// A turn beyond what the motors were commanded to make ([`crate::commanded`]).
+    Uncommanded,
 }
 
 impl Doubt {
     /// Every doubt, in the order of [`Doubt::code`].
-    pub const ALL: [Doubt; 5] = [
+    pub const ALL: [Doubt; 6] = [
         Doubt::Missing,
         Doubt::Stuck,
         Doubt::Impossible,
         Doubt::Jump,
         Doubt::MovedWhileHeld,
+        Doubt::Uncommanded,
     ];
 
-    /// A small number for the wire: 1 to 5 (0 is "trusted").
+    /// A small number for the wire: 1 to 6 (0 is "trusted").
     pub fn code(self) -> u8 {
         self as u8 + 1
     }
@@ -351,6 +358,8 @@ pub struct Plausibility {
     /// the tick a doubt begins.
     moving_gyro: Option<GyroRate>,
     moving_flow: Option<FlowDelta>,
+    /// The motors' last commands, to check the gyro against.
+    commands: RecentCommands,
 }
 
 impl Plausibility {
@@ -363,10 +372,11 @@ impl Plausibility {
         }
     }
 
-    /// Judges a tick's readings. The robot is taken as held since the last tick where
-    /// the trust then lacked what its motion needs (turns: the gyro; drives: the flow as
-    /// well). An input never heard from is not doubted for being missing: the robot
-    /// waits for its sensors before it moves.
+    /// Judges a tick's readings, with the command the motors were driven with as the
+    /// tick's interval ended (`None`: not known). The robot is taken as held since the
+    /// last tick where the trust then lacked what its motion needs (turns: the gyro;
+    /// drives: the flow as well). An input never heard from is not doubted for being
+    /// missing: the robot waits for its sensors before it moves.
     ///
     /// Out of line: once a tick, and the firmware builds the core for speed.
     #[inline(never)]
@@ -375,17 +385,20 @@ impl Plausibility {
         gyro: Option<GyroRate>,
         flow: Option<FlowDelta>,
         depth: Option<&DepthScan>,
+        commanded: Option<DriveCommand>,
         config: &PlausibleConfig,
     ) -> Judged {
         let before = self.trust();
         let turn_held = before.lacking(true, false).is_some();
         let drive_held = before.lacking(false, true).is_some();
         let after = config.trust_after_ticks;
+        self.commands.push(commanded);
 
         let gyro_verdict = match gyro {
             Some(g) => {
                 let (last, repeats) = self.gyro_repeats.push(g);
                 check_gyro(g, last, repeats, turn_held, config)
+                    .and_then(|()| check_gyro_commanded(g, &self.commands, &config.command))
             }
             None if self.gyro_repeats.last.is_none() => Ok(()),
             None => Err(Doubt::Missing),
@@ -564,7 +577,8 @@ mod tests {
     #[test]
     fn trust_comes_back_after_enough_good_readings_in_a_row() {
         let mut p = Plausibility::default();
-        let tick = |p: &mut Plausibility, g: Option<i32>| p.judge(g.map(rate), None, None, &C);
+        let tick =
+            |p: &mut Plausibility, g: Option<i32>| p.judge(g.map(rate), None, None, None, &C);
         // Never heard: not doubted, nothing known.
         let first = tick(&mut p, None);
         assert_eq!((first.trust, first.gyro), (Trust::default(), Known::Lost));
@@ -595,14 +609,14 @@ mod tests {
     #[test]
     fn a_doubted_flow_holds_drives_not_turns() {
         let mut p = Plausibility::default();
-        p.judge(Some(rate(0)), Some(flow(86, 0)), None, &C);
-        let garbage = p.judge(Some(rate(0)), Some(flow(9_000, 0)), None, &C);
+        p.judge(Some(rate(0)), Some(flow(86, 0)), None, None, &C);
+        let garbage = p.judge(Some(rate(0)), Some(flow(9_000, 0)), None, None, &C);
         assert_eq!(garbage.trust.flow, Some(Doubt::Impossible));
         assert_eq!(garbage.flow, Known::Read(flow(86, 0)));
         assert_eq!(garbage.trust.lacking(true, false), None);
         assert_eq!(garbage.trust.lacking(false, true), Some(Input::Flow));
         assert!(!garbage.trust.pose());
-        let held = p.judge(Some(rate(0)), Some(flow(1, 0)), None, &C);
+        let held = p.judge(Some(rate(0)), Some(flow(1, 0)), None, None, &C);
         assert_eq!(held.flow, Known::Still);
     }
 
@@ -620,6 +634,6 @@ mod tests {
             assert_eq!(Doubt::from_code(d.code()), Some(d));
         }
         assert_eq!(Doubt::from_code(0), None);
-        assert_eq!(Doubt::from_code(6), None);
+        assert_eq!(Doubt::from_code(Doubt::ALL.len() as u8 + 1), None);
     }
 }

@@ -387,10 +387,13 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         self.counters.depth_stale += stale.depth as u32;
 
         let judged = match &self.config.plausible {
-            Some(limits) => {
-                self.plausibility
-                    .judge(frame.gyro, frame.flow, frame.depth.as_ref(), limits)
-            }
+            Some(limits) => self.plausibility.judge(
+                frame.gyro,
+                frame.flow,
+                frame.depth.as_ref(),
+                frame.commanded,
+                limits,
+            ),
             None => Judged::believing(frame.gyro, frame.flow),
         };
         let trust = judged.trust;

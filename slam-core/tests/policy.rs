@@ -134,3 +134,63 @@ fn a_repeated_or_impossible_depth_frame_is_not_mapped() {
     assert_eq!(reports[2].trust.depth, None);
     assert!(reports[2].cells_written > 0);
 }
+
+#[test]
+fn a_gyro_reading_more_turn_than_commanded_is_doubted_and_the_turn_held() {
+    let config = slam_core::GuardConfig::SEED;
+    let turn = DriveCommand {
+        speed_mm_s: 0,
+        turn_mdps: TURN_MDPS,
+    };
+    let still = DriveCommand::default();
+    // Tick `k`'s frame, driven with `commanded`, the gyro reading `gyro`.
+    let told = |k: i32, gyro: i32, commanded: Option<DriveCommand>| SensorFrame {
+        commanded,
+        ..frame(k, Some(gyro))
+    };
+    // A 3 deg/s bias jump mid-turn, and the seed gyro's 0.75 % scale error before it.
+    let honest = TURN_MDPS * 10_075 / 10_000;
+    let biased = honest + 3_000;
+
+    // Not told the command, the core believes the jump.
+    let mut blind = robot();
+    for k in 0..10 {
+        blind.step(&told(k, honest, None));
+    }
+    assert_eq!(blind.step(&told(10, biased, None)).trust.gyro, None);
+
+    let mut slam = robot();
+    for k in 0..10 {
+        let r = slam.step(&told(k, honest, Some(turn)));
+        assert_eq!(r.trust.gyro, None);
+    }
+    let before = heading_mdeg(&slam.step(&told(10, honest, Some(turn))));
+    // The first tick of the jump: doubted, the last trusted rate stands in, no scan, and
+    // the guard holds the turn.
+    let jumped = slam.step(&told(11, biased, Some(turn)));
+    assert_eq!(jumped.trust.gyro, Some(Doubt::Uncommanded));
+    assert_eq!(jumped.cells_written, 0);
+    let turned = heading_mdeg(&jumped) - before;
+    assert!((3_000..3_300).contains(&turned), "{turned} mdeg");
+    let decision = slam_core::decide(&config, &jumped.pose, slam.map(), None, &jumped.trust, turn);
+    assert_eq!(decision, slam_core::Decision::Hold(Input::Gyro));
+
+    // Held, the bias reads as a turn the robot does not make: still doubted, the heading
+    // stays.
+    for k in 12..40 {
+        let r = slam.step(&told(k, 3_000, Some(still)));
+        assert_eq!(r.trust.gyro, Some(Doubt::Uncommanded));
+        assert_eq!(heading_mdeg(&r), heading_mdeg(&jumped));
+        assert_eq!(r.cells_written, 0);
+    }
+    // The bias gone: trusted after three plausible readings, and the turn goes on.
+    let back: Vec<_> = (40..43)
+        .map(|k| slam.step(&told(k, 20, Some(still))))
+        .collect();
+    assert!(back[1].trust.gyro.is_some());
+    assert_eq!(back[2].trust.gyro, None);
+    assert!(back[2].cells_written > 0);
+    for k in 43..53 {
+        assert_eq!(slam.step(&told(k, honest, Some(turn))).trust.gyro, None);
+    }
+}

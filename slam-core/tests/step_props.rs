@@ -5,8 +5,8 @@ mod reference;
 use proptest::prelude::*;
 use slam_core::odometry::{self, OdometryConfig};
 use slam_core::{
-    Angle, DepthScan, FlowDelta, GyroRate, Pose, SensorFrame, Slam, TagDetection, TagDetections,
-    MAX_TAGS,
+    Angle, DepthScan, DriveCommand, FlowDelta, GyroRate, Pose, SensorFrame, Slam, TagDetection,
+    TagDetections, MAX_TAGS,
 };
 
 fn config() -> ProptestConfig {
@@ -53,9 +53,20 @@ fn frame() -> impl Strategy<Value = SensorFrame> {
         prop_oneof![Just(0u32), 0u32..500_000, any::<u32>()],
         proptest::option::weighted(0.3, pose()),
         prop_oneof![Just(0u32), 0u32..500_000, any::<u32>()],
+        proptest::option::of((any::<i32>(), any::<i32>())),
     )
         .prop_map(
-            |(dt_us, flow, gyro, depth, tags, tags_age_us, external_pose, depth_age_us)| {
+            |(
+                dt_us,
+                flow,
+                gyro,
+                depth,
+                tags,
+                tags_age_us,
+                external_pose,
+                depth_age_us,
+                commanded,
+            )| {
                 SensorFrame {
                     dt_us,
                     flow: flow.map(|(f, r)| FlowDelta {
@@ -68,6 +79,10 @@ fn frame() -> impl Strategy<Value = SensorFrame> {
                     tags,
                     tags_age_us,
                     external_pose,
+                    commanded: commanded.map(|(speed_mm_s, turn_mdps)| DriveCommand {
+                        speed_mm_s,
+                        turn_mdps,
+                    }),
                 }
             },
         )

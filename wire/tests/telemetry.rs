@@ -3,9 +3,10 @@
 
 use proptest::prelude::*;
 use slam_core::{
-    Angle, Calibration, Counters, DepthScan, Doubt, Evidence, FixOutcome, FixRejection, FlowDelta,
-    GridGeometry, GridMap, GyroRate, Localiser, Pose, PoseCovariance, SensorFrame, Staleness,
-    StepReport, TagCounters, TagDetection, TagDetections, Trust, BEAMS, MAX_TAGS,
+    Angle, Calibration, Counters, DepthScan, Doubt, DriveCommand, Evidence, FixOutcome,
+    FixRejection, FlowDelta, GridGeometry, GridMap, GyroRate, Localiser, Pose, PoseCovariance,
+    SensorFrame, Staleness, StepReport, TagCounters, TagDetection, TagDetections, Trust, BEAMS,
+    MAX_TAGS,
 };
 use wire::framing::{cobs_encode, crc16};
 use wire::telemetry::*;
@@ -158,6 +159,10 @@ fn sensor_frame() -> SensorFrame {
         tags,
         tags_age_us: 61_000,
         external_pose: Some(Pose::from_mm_mdeg(700, 500, 90_000)),
+        commanded: Some(DriveCommand {
+            speed_mm_s: 86,
+            turn_mdps: -31_500,
+        }),
     }
 }
 
@@ -202,6 +207,10 @@ fn worst_inputs() -> Message {
                 y_um: i32::MIN,
                 heading: Angle::from_bits(u32::MAX),
             }),
+            commanded: Some(DriveCommand {
+                speed_mm_s: i32::MIN,
+                turn_mdps: i32::MIN,
+            }),
         },
     })
 }
@@ -228,7 +237,7 @@ fn health_frame_fixture() {
         gyro_start_failures: 2,
         ..SensorHealth::default()
     });
-    let stuffed = sealed(&[0xB6, 3, 0, 1, 0xAC, 0x02, 0, 0, 0, 0, 0, 0, 0, 0, 2]);
+    let stuffed = sealed(&[0xB7, 3, 0, 1, 0xAC, 0x02, 0, 0, 0, 0, 0, 0, 0, 0, 2]);
     assert_eq!(frame(&h), stuffed);
     // No zero before the delimiter.
     assert!(!stuffed[..stuffed.len() - 1].contains(&0));
@@ -261,7 +270,7 @@ fn filter_frame_fixture() {
         },
     });
     let raw = [
-        0xB6, 4, 2, 0xD8, 0x04, 1, 0, 0, 0, 0x80, 0x80, 0x08, 3, 0, 0x80, 0x01, 5, 0, 0, 1, 0, 2,
+        0xB7, 4, 2, 0xD8, 0x04, 1, 0, 0, 0, 0x80, 0x80, 0x08, 3, 0, 0x80, 0x01, 5, 0, 0, 1, 0, 2,
     ];
     assert_eq!(frame(&m), sealed(&raw));
     assert_eq!(decode_all(&sealed(&raw)).0, std::vec![Ok(m)]);
@@ -301,7 +310,7 @@ fn hello_carries_the_boot() {
         let mut body = hello_body(&hello());
         let at = body.len() - from_end;
         body[at] = bad;
-        let mut raw = std::vec![0xB6];
+        let mut raw = std::vec![0xB7];
         raw.extend(body);
         assert_eq!(
             decode_all(&sealed(&raw)).0,
@@ -331,7 +340,7 @@ fn hello_carries_the_localiser() {
     let mut body = hello_body(&hello());
     let at = body.len() - 4;
     body[at] = 3;
-    let mut raw = std::vec![0xB6];
+    let mut raw = std::vec![0xB7];
     raw.extend(body);
     assert_eq!(
         decode_all(&sealed(&raw)).0,
@@ -347,7 +356,7 @@ fn inputs_frame_fixture() {
         time_ms: 2,
         frame: SensorFrame::empty(3),
     });
-    let raw = [0xB6, 5, 1, 2, 3, 0, 0, 0, 0, 0, 0, 0];
+    let raw = [0xB7, 5, 1, 2, 3, 0, 0, 0, 0, 0, 0, 0, 0];
     assert_eq!(frame(&m), sealed(&raw));
     assert_eq!(decode_all(&sealed(&raw)).0, std::vec![Ok(m)]);
     // One tag (id 11, cx -1 zigzagged to 1, 300 mm) and a gyro reading of 5 mdps.
@@ -366,29 +375,48 @@ fn inputs_frame_fixture() {
             ..SensorFrame::empty(3)
         },
     });
-    let raw = [0xB6, 5, 1, 2, 3, 0, 1, 10, 0, 0, 1, 11, 1, 0xAC, 0x02, 0, 0];
+    let raw = [
+        0xB7, 5, 1, 2, 3, 0, 1, 10, 0, 0, 1, 11, 1, 0xAC, 0x02, 0, 0, 0,
+    ];
     assert_eq!(frame(&m), sealed(&raw));
+    // Commanded 86 mm/s (zigzag 172) and -31.5 deg/s (zigzag 62,999).
+    let m = Message::Inputs(Inputs {
+        tick: 1,
+        time_ms: 2,
+        frame: SensorFrame {
+            commanded: Some(DriveCommand {
+                speed_mm_s: 86,
+                turn_mdps: -31_500,
+            }),
+            ..SensorFrame::empty(3)
+        },
+    });
+    let raw = [
+        0xB7, 5, 1, 2, 3, 0, 0, 0, 0, 0, 0, 0, 1, 0xAC, 0x01, 0x97, 0xEC, 0x03,
+    ];
+    assert_eq!(frame(&m), sealed(&raw));
+    assert_eq!(decode_all(&sealed(&raw)).0, std::vec![Ok(m)]);
 }
 
 #[test]
 fn inputs_with_more_tags_than_the_core_holds_are_refused() {
-    let mut raw = std::vec![0xB6, 5, 1, 2, 3, 0, 0, 0, 0];
+    let mut raw = std::vec![0xB7, 5, 1, 2, 3, 0, 0, 0, 0];
     raw.push(u8::try_from(MAX_TAGS + 1).unwrap_or(u8::MAX));
     for _ in 0..=MAX_TAGS {
         raw.extend([1, 0, 0]);
     }
-    raw.extend([0, 0]);
+    raw.extend([0, 0, 0]);
     assert_eq!(
         decode_all(&sealed(&raw)).0,
         std::vec![Err(FrameError::Body)]
     );
     // The same with the most it holds decodes.
-    let mut raw = std::vec![0xB6, 5, 1, 2, 3, 0, 0, 0, 0];
+    let mut raw = std::vec![0xB7, 5, 1, 2, 3, 0, 0, 0, 0];
     raw.push(u8::try_from(MAX_TAGS).unwrap_or(u8::MAX));
     for _ in 0..MAX_TAGS {
         raw.extend([1, 0, 0]);
     }
-    raw.extend([0, 0]);
+    raw.extend([0, 0, 0]);
     let (out, _) = decode_all(&sealed(&raw));
     assert!(
         matches!(&out[..], [Ok(Message::Inputs(i))] if i.frame.tags.len() == MAX_TAGS),
@@ -549,7 +577,7 @@ fn garbage_between_frames_resynchronises() {
     bytes.extend([1, 2, 3, 4, 5, 0]);
     bytes.extend(frame(&tick()));
     bytes.extend([0, 0, 0]); // empty frames: ignored
-    bytes.extend([0xB6, 0x07, 0]); // stuffing that runs past the end
+    bytes.extend([0xB7, 0x07, 0]); // stuffing that runs past the end
     bytes.extend(frame(&health()));
     let (out, stats) = decode_all(&bytes);
     let good: Vec<Message> = out.iter().filter_map(|r| r.clone().ok()).collect();
@@ -622,13 +650,13 @@ fn wrong_version_and_bad_body_are_told_apart() {
     }
 
     for raw in [
-        std::vec![0xB6, 9],                                        // no such variant
-        std::vec![0xB6, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0],             // health cut short
-        std::vec![0xB6, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 7], // a byte left over
-        std::vec![0xB6, 2, 0, 0, 0x81, 0x01],                      // 129 cells announced
-        std::vec![0xB6, 4, 1, 0, 0, 0, 0, 0],                      // filter cut short
-        std::vec![0xB6, 5, 1, 2, 3, 0, 0, 0],                      // inputs cut short
-        std::vec![0xB6, 5, 1, 2, 3, 2],                            // flow option byte 2
+        std::vec![0xB7, 9],                                        // no such variant
+        std::vec![0xB7, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0],             // health cut short
+        std::vec![0xB7, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 7], // a byte left over
+        std::vec![0xB7, 2, 0, 0, 0x81, 0x01],                      // 129 cells announced
+        std::vec![0xB7, 4, 1, 0, 0, 0, 0, 0],                      // filter cut short
+        std::vec![0xB7, 5, 1, 2, 3, 0, 0, 0],                      // inputs cut short
+        std::vec![0xB7, 5, 1, 2, 3, 2],                            // flow option byte 2
     ] {
         assert_eq!(
             decode_all(&sealed(&raw)).0,
@@ -959,8 +987,8 @@ proptest! {
 
     #[test]
     fn arbitrary_inputs_round_trip(
-        v in proptest::array::uniform12(any::<u32>()),
-        present in proptest::array::uniform4(any::<bool>()),
+        v in proptest::array::uniform13(any::<u32>()),
+        present in proptest::array::uniform5(any::<bool>()),
         ranges in proptest::array::uniform8(proptest::option::of(any::<u16>())),
         tags in proptest::collection::vec((any::<u16>(), any::<i32>(), any::<u32>()), 0..=MAX_TAGS),
     ) {
@@ -987,6 +1015,10 @@ proptest! {
                     x_um: v[8] as i32,
                     y_um: v[9] as i32,
                     heading: Angle::from_bits(v[10]),
+                }),
+                commanded: present[4].then_some(DriveCommand {
+                    speed_mm_s: v[11] as i32,
+                    turn_mdps: v[12] as i32,
                 }),
             },
         });

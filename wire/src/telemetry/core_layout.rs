@@ -7,9 +7,9 @@
 
 use serde::{Deserialize, Serialize, Serializer};
 use slam_core::{
-    Angle, Calibration, Counters, DepthScan, FixOutcome, FixRejection, FlowDelta, GyroRate,
-    Localiser, Pose, PoseCovariance, SensorFrame, TagCounters, TagDetection, TagDetections, BEAMS,
-    MAX_TAGS,
+    Angle, Calibration, Counters, DepthScan, DriveCommand, FixOutcome, FixRejection, FlowDelta,
+    GyroRate, Localiser, Pose, PoseCovariance, SensorFrame, TagCounters, TagDetection,
+    TagDetections, BEAMS, MAX_TAGS,
 };
 
 /// [`FixRejection`] on the wire: its variant index as a varint.
@@ -119,6 +119,14 @@ pub(crate) struct GyroRateDef {
     rate_mdps: i32,
 }
 
+/// [`DriveCommand`] on the wire: two zigzag varints, mm/s and millidegrees per second.
+#[derive(Serialize, Deserialize)]
+#[serde(remote = "DriveCommand", rename = "DriveCommand")]
+pub(crate) struct DriveCommandDef {
+    speed_mm_s: i32,
+    turn_mdps: i32,
+}
+
 /// [`DepthScan`] on the wire: [`BEAMS`] optional `u16` ranges, no count (the array is fixed).
 #[derive(Serialize, Deserialize)]
 #[serde(remote = "DepthScan", rename = "DepthScan")]
@@ -178,6 +186,8 @@ pub(crate) struct SensorFrameDef {
     tags_age_us: u32,
     #[serde(with = "option_pose")]
     external_pose: Option<Pose>,
+    #[serde(with = "option_command")]
+    commanded: Option<DriveCommand>,
 }
 
 /// `Option<T>` of a remote type `T` whose mirror is `$def`: postcard's option byte (0
@@ -214,6 +224,7 @@ option_of!(option_flow, FlowDelta, "FlowDeltaDef");
 option_of!(option_gyro, GyroRate, "GyroRateDef");
 option_of!(option_depth, DepthScan, "DepthScanDef");
 option_of!(option_pose, Pose, "PoseDef");
+option_of!(option_command, DriveCommand, "DriveCommandDef");
 
 /// [`TagDetections`] on the wire: a varint count, at most [`MAX_TAGS`] (a longer list is
 /// refused as a bad body), then each detection.
