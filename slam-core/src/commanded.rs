@@ -17,15 +17,16 @@ use crate::plausible::Doubt;
 
 /// How far the gyro may read beyond the commanded motion.
 ///
-/// At the seed's turn on the spot (31.5 deg/s) the gyro may read up to 33.575 deg/s,
-/// and up to 2.075 deg/s the other way; standing, 0.5 deg/s either way; driving at
+/// At the seed's turn on the spot (31.5 deg/s) the gyro may read up to 33.568 deg/s,
+/// and up to 2.068 deg/s the other way; standing, 0.5 deg/s either way; driving at
 /// 86 mm/s, 4.456 deg/s either way.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct CommandTolerance {
-    /// How much faster than the fastest commanded turn the gyro may read, per mille of
-    /// it: the motors running beyond their command, and the gyro's scale error.
-    pub turn_permille: u8,
+    /// How much faster than the fastest commanded turn the gyro may read, in 1,024ths of
+    /// it (a shift, where per mille would cost the M0+ a division each tick): the motors
+    /// running beyond their command, and the gyro's scale error.
+    pub turn_per_1024: u8,
     /// How fast a straight drive may turn, millidegrees per second per millimetre per
     /// second of its speed: two open-loop wheels each off their command the other way.
     pub drive_turn_mdps_per_mm_s: u8,
@@ -35,7 +36,7 @@ pub struct CommandTolerance {
 }
 
 impl CommandTolerance {
-    /// BugBot: 50 per mille, 4 % for the motors (speed is taken as proportional to duty,
+    /// BugBot: 51 / 1,024 (5 %), 4 % for the motors (speed is taken as proportional to duty,
     /// with full duty the robot's measured full speed on a charged battery, so a draining
     /// one only slows it) and 1 % for the gyro's scale (the simulator's 0.75 %); a drive
     /// turns at most what two wheels 4 % apart make on the 100 mm base (2 x 0.04 / 100 mm
@@ -44,7 +45,7 @@ impl CommandTolerance {
     /// wander (0.02 deg/s, 0.002 deg/s per root second) and the firmware's duty rounding
     /// (half a per mille of duty, 0.17 deg/s).
     pub const SEED: CommandTolerance = CommandTolerance {
-        turn_permille: 50,
+        turn_per_1024: 51,
         drive_turn_mdps_per_mm_s: 46,
         margin_mdps: 500,
     };
@@ -65,19 +66,25 @@ pub const COMMAND_FRAMES: usize = 3;
 const TURN_LIMIT_MDPS: i32 = 1 << 20;
 const SPEED_LIMIT_MM_S: u32 = 1 << 16;
 
-/// The commands in force as the last [`COMMAND_FRAMES`] frames' intervals ended, newest
-/// first. A command that changed during the last interval is the newest or the one
-/// before; one that changed during the interval before has had at least a tick to take.
+/// The commands in force as the last [`COMMAND_FRAMES`] frames' intervals ended, in a
+/// ring: only their range matters, not their order. A command that changed during the
+/// last interval is the newest or the one before; one that changed during the interval
+/// before has had at least a tick to take.
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
 pub struct RecentCommands {
-    newest_first: [Option<DriveCommand>; COMMAND_FRAMES],
+    slots: [Option<DriveCommand>; COMMAND_FRAMES],
+    /// The slot the next command overwrites: the oldest.
+    next: u8,
 }
 
 impl RecentCommands {
-    /// Takes a frame's command (`None`: not known).
+    /// Takes a frame's command (`None`: not known), in place of the oldest.
     pub fn push(&mut self, command: Option<DriveCommand>) {
-        self.newest_first.rotate_right(1);
-        self.newest_first[0] = command;
+        let at = usize::from(self.next);
+        if let Some(slot) = self.slots.get_mut(at) {
+            *slot = command;
+        }
+        self.next = if at + 1 < COMMAND_FRAMES { at as u8 + 1 } else { 0 };
     }
 
     /// The slowest and fastest turn the robot can have been commanded over the last
@@ -85,7 +92,7 @@ impl RecentCommands {
     /// fastest drive, millimetres per second; `None` unless all the commands are known.
     fn bounds(&self) -> Option<(i32, i32, u32)> {
         let (mut low, mut high, mut speed) = (0, 0, 0);
-        for command in self.newest_first {
+        for command in self.slots {
             let command = command?;
             low = command.turn_mdps.min(low);
             high = command.turn_mdps.max(high);
@@ -115,7 +122,7 @@ pub fn check_gyro_commanded(
         return Ok(());
     };
     let fastest = high.max(-low);
-    let slack = fastest * i32::from(tolerance.turn_permille) / 1000
+    let slack = ((fastest * i32::from(tolerance.turn_per_1024)) >> 10)
         + speed_mm_s as i32 * i32::from(tolerance.drive_turn_mdps_per_mm_s)
         + i32::from(tolerance.margin_mdps);
     let rate = rate.rate_mdps;
@@ -166,15 +173,16 @@ mod tests {
     #[test]
     fn a_turn_faster_than_commanded_by_more_than_the_tolerance_is_doubted() {
         let turning = [turn(31_500); 3];
-        // 31,500 + 1,575 + 500.
-        assert_eq!(verdict(33_575, &turning), Ok(()));
-        assert_eq!(verdict(33_576, &turning), Err(Doubt::Uncommanded));
+        // 31,500 + 1,568 + 500.
+        assert_eq!(verdict(33_568, &turning), Ok(()));
+        assert_eq!(verdict(33_569, &turning), Err(Doubt::Uncommanded));
         // The seed's gyro, 0.75 % fast with its 0.02 deg/s bias, then a 3 deg/s jump.
         assert_eq!(verdict(31_756, &turning), Ok(()));
         assert_eq!(verdict(34_756, &turning), Err(Doubt::Uncommanded));
         // Anticlockwise alike.
         let anticlockwise = [turn(-31_500); 3];
-        assert_eq!(verdict(-33_575, &anticlockwise), Ok(()));
+        assert_eq!(verdict(-33_568, &anticlockwise), Ok(()));
+        assert_eq!(verdict(-33_569, &anticlockwise), Err(Doubt::Uncommanded));
         assert_eq!(verdict(-34_756, &anticlockwise), Err(Doubt::Uncommanded));
     }
 
@@ -184,9 +192,9 @@ mod tests {
         // A spell of 30 % lost speed, or a stalled robot.
         assert_eq!(verdict(22_050, &turning), Ok(()));
         assert_eq!(verdict(0, &turning), Ok(()));
-        // 1,575 + 500 the other way is noise and scale; beyond, a turn nobody asked for.
-        assert_eq!(verdict(-2_075, &turning), Ok(()));
-        assert_eq!(verdict(-2_076, &turning), Err(Doubt::Uncommanded));
+        // 1,568 + 500 the other way is noise and scale; beyond, a turn nobody asked for.
+        assert_eq!(verdict(-2_068, &turning), Ok(()));
+        assert_eq!(verdict(-2_069, &turning), Err(Doubt::Uncommanded));
     }
 
     #[test]
@@ -238,10 +246,11 @@ mod tests {
             speed_mm_s: i32::MIN,
             turn_mdps: i32::MIN,
         }); 3];
-        // Down to 1,048 deg/s anticlockwise and 65 m/s: 3,067,584 mdps of slack.
-        assert_eq!(verdict(-(1 << 20) - 3_067_584, &wild), Ok(()));
-        assert_eq!(verdict(3_067_584, &wild), Ok(()));
-        assert_eq!(verdict(3_067_585, &wild), Err(Doubt::Uncommanded));
+        // Down to 1,048 deg/s anticlockwise and 65 m/s: 3,067,380 mdps of slack.
+        assert_eq!(verdict(-(1 << 20) - 3_067_380, &wild), Ok(()));
+        assert_eq!(verdict(-(1 << 20) - 3_067_381, &wild), Err(Doubt::Uncommanded));
+        assert_eq!(verdict(3_067_380, &wild), Ok(()));
+        assert_eq!(verdict(3_067_381, &wild), Err(Doubt::Uncommanded));
         assert_eq!(verdict(i32::MIN, &wild), Err(Doubt::Uncommanded));
         assert_eq!(verdict(i32::MAX, &wild), Err(Doubt::Uncommanded));
         assert_eq!(
