@@ -84,7 +84,11 @@ impl RecentCommands {
         if let Some(slot) = self.slots.get_mut(at) {
             *slot = command;
         }
-        self.next = if at + 1 < COMMAND_FRAMES { at as u8 + 1 } else { 0 };
+        self.next = if at + 1 < COMMAND_FRAMES {
+            at as u8 + 1
+        } else {
+            0
+        };
     }
 
     /// The slowest and fastest turn the robot can have been commanded over the last
@@ -248,7 +252,10 @@ mod tests {
         }); 3];
         // Down to 1,048 deg/s anticlockwise and 65 m/s: 3,067,380 mdps of slack.
         assert_eq!(verdict(-(1 << 20) - 3_067_380, &wild), Ok(()));
-        assert_eq!(verdict(-(1 << 20) - 3_067_381, &wild), Err(Doubt::Uncommanded));
+        assert_eq!(
+            verdict(-(1 << 20) - 3_067_381, &wild),
+            Err(Doubt::Uncommanded)
+        );
         assert_eq!(verdict(3_067_380, &wild), Ok(()));
         assert_eq!(verdict(3_067_381, &wild), Err(Doubt::Uncommanded));
         assert_eq!(verdict(i32::MIN, &wild), Err(Doubt::Uncommanded));
