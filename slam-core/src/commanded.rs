@@ -1,6 +1,8 @@
-//! The gyro against the motion the motors were asked for: a turn they did not command.
+//! The gyro and the flow against the motion the motors were asked for: a turn or a
+//! drive they did not command.
 //!
-//! A gyro whose bias jumps reads a turn that is plausible on its own. The motors say
+//! A gyro whose bias jumps reads a turn that is plausible on its own, and a flow sensor
+//! whose scale changes (another floor, another height) a plausible speed. The motors say
 //! what the robot can have done: its wheels may fall short of their command (slip, a
 //! stall, a wall, spinning up) but not run much beyond it, and they follow a new command
 //! within a tick. So over a frame's interval the robot turned at a rate between 0 and
@@ -9,10 +11,15 @@
 //! noise. A reading outside that range, widened by [`CommandTolerance`], is doubted
 //! ([`Doubt::Uncommanded`]).
 //!
-//! What is caught is a reading of more turn than commanded, or of a turn the other way. A
-//! gyro that reads less than commanded is not told from a wheel that slips.
+//! The flow alike: over a tick the robot drove no faster than the fastest drive of those
+//! commands, and a turn moves the flow sensor only as far as it sits beside the turning
+//! axis ([`check_flow_commanded`]).
+//!
+//! What is caught is a reading of more turn or more drive than commanded, or of a turn
+//! the other way. A gyro or a flow that reads less than commanded is not told from a
+//! wheel that slips.
 
-use crate::frame::{DriveCommand, GyroRate};
+use crate::frame::{DriveCommand, FlowDelta, GyroRate};
 use crate::plausible::Doubt;
 
 /// How far the gyro may read beyond the commanded motion.
@@ -33,6 +40,15 @@ pub struct CommandTolerance {
     /// Added in every case for the gyro's noise, its bias and the motors' rounding,
     /// millidegrees per second.
     pub margin_mdps: u16,
+    /// A tick's forward flow counts per millimetre a second of the fastest commanded
+    /// drive, in 1,024ths: the count's size and the tick's length, with what the motors
+    /// may run beyond their command and the flow sensor's scale may read long.
+    pub drive_flow_per_1024: u16,
+    /// How far the flow sensor may sit beside the turning axis, millimetres: a turn
+    /// moves it forwards by this much per radian.
+    pub flow_offset_mm: u8,
+    /// Added in every case for the flow's noise, counts.
+    pub flow_margin_counts: u8,
 }
 
 impl CommandTolerance {
@@ -43,11 +59,18 @@ impl CommandTolerance {
     /// rad/s per mm/s: 46); 500 mdps for the gyro's noise over a tick (0.1 deg/s a 5 ms
     /// sample: 0.022 deg/s over 20), the bias left after the start-up calibration and its
     /// wander (0.02 deg/s, 0.002 deg/s per root second) and the firmware's duty rounding
-    /// (half a per mille of duty, 0.17 deg/s).
+    /// (half a per mille of duty, 0.17 deg/s). The flow counts 100 um at 10 Hz, one count
+    /// a tick per mm/s, so 1,126 / 1,024 (110 %): 4 % for the motors and 6 % for a flow
+    /// scale read long (the seed's reads 4 % short); 10 mm beside the axis (a 20 mm mount
+    /// error on BugBot's chassis is a loose sensor; `seed-mat-rough` has 3 mm); 6 counts
+    /// for the noise (0.5 counts a 100 Hz reading: 1.6 a tick, so nearly four deviations).
     pub const SEED: CommandTolerance = CommandTolerance {
         turn_per_1024: 51,
         drive_turn_mdps_per_mm_s: 46,
         margin_mdps: 500,
+        drive_flow_per_1024: 1_126,
+        flow_offset_mm: 10,
+        flow_margin_counts: 6,
     };
 }
 
@@ -75,6 +98,8 @@ pub struct RecentCommands {
     slots: [Option<DriveCommand>; COMMAND_FRAMES],
     /// The slot the next command overwrites: the oldest.
     next: u8,
+    /// [`RecentCommands::bounds`] of the slots, worked out once a push for both checks.
+    bounds: Option<(i32, i32, u32)>,
 }
 
 impl RecentCommands {
@@ -89,12 +114,17 @@ impl RecentCommands {
         } else {
             0
         };
+        self.bounds = self.bounds_of_slots();
     }
 
     /// The slowest and fastest turn the robot can have been commanded over the last
     /// interval, millidegrees per second (0 always among them: a wheel may stop), and the
     /// fastest drive, millimetres per second; `None` unless all the commands are known.
     fn bounds(&self) -> Option<(i32, i32, u32)> {
+        self.bounds
+    }
+
+    fn bounds_of_slots(&self) -> Option<(i32, i32, u32)> {
         let (mut low, mut high, mut speed) = (0, 0, 0);
         for command in self.slots {
             let command = command?;
@@ -131,6 +161,36 @@ pub fn check_gyro_commanded(
         + i32::from(tolerance.margin_mdps);
     let rate = rate.rate_mdps;
     if rate > high + slack || rate < low - slack {
+        Err(Doubt::Uncommanded)
+    } else {
+        Ok(())
+    }
+}
+
+/// Whether the flow's forward counts over the last interval are a drive the robot can
+/// have made under the `recent` commands, within `tolerance`: no faster than the fastest
+/// commanded drive, plus what the fastest commanded turn moves a sensor beside the axis.
+/// Nothing is checked while a command is unknown.
+///
+/// In 32 bits: the commands' limits keep the drive's product below 2^32 and the turn's
+/// below 2^30; the sum saturates.
+#[inline(never)]
+pub fn check_flow_commanded(
+    flow: FlowDelta,
+    recent: &RecentCommands,
+    tolerance: &CommandTolerance,
+) -> Result<(), Doubt> {
+    let Some((low, high, speed_mm_s)) = recent.bounds() else {
+        return Ok(());
+    };
+    let fastest_turn = high.max(-low).unsigned_abs();
+    // mdps x mm x 146 / 2^23 (1.74e-5): pi / 180 / 1000 rad/s per mdps, over a 0.1 s
+    // tick, in 100 um counts.
+    let turned = ((fastest_turn >> 6) * u32::from(tolerance.flow_offset_mm) * 146) >> 17;
+    let bound = ((speed_mm_s * u32::from(tolerance.drive_flow_per_1024)) >> 10)
+        .saturating_add(turned)
+        .saturating_add(u32::from(tolerance.flow_margin_counts));
+    if flow.forward_counts.unsigned_abs() > bound {
         Err(Doubt::Uncommanded)
     } else {
         Ok(())
@@ -244,6 +304,47 @@ mod tests {
         );
     }
 
+    fn forward(counts: i32, commands: &[Option<DriveCommand>]) -> Result<(), Doubt> {
+        let flow = FlowDelta {
+            forward_counts: counts,
+            right_counts: 0,
+        };
+        check_flow_commanded(flow, &after(commands), &T)
+    }
+
+    #[test]
+    fn a_drive_faster_than_commanded_by_more_than_the_tolerance_is_doubted() {
+        let driving = [drive(86); 3];
+        // 86 x 1,126 / 1,024 = 94, and 6 for the noise.
+        assert_eq!(forward(100, &driving), Ok(()));
+        assert_eq!(forward(101, &driving), Err(Doubt::Uncommanded));
+        // The seed's flow, 4 % short: 83 counts; scaled by 1.3 (another floor): 107.
+        assert_eq!(forward(83, &driving), Ok(()));
+        assert_eq!(forward(107, &driving), Err(Doubt::Uncommanded));
+        // Slower is slip; backwards alike.
+        assert_eq!(forward(0, &driving), Ok(()));
+        assert_eq!(forward(-100, &[drive(-86); 3]), Ok(()));
+        assert_eq!(forward(-101, &[drive(-86); 3]), Err(Doubt::Uncommanded));
+    }
+
+    #[test]
+    fn standing_or_turning_on_the_spot_allows_what_the_mount_explains() {
+        let standing = [drive(0); 3];
+        assert_eq!(forward(6, &standing), Ok(()));
+        assert_eq!(forward(7, &standing), Err(Doubt::Uncommanded));
+        // At 31.5 deg/s, 10 mm beside the axis moves 5.5 mm/s: 5 counts a tick.
+        let turning = [turn(31_500); 3];
+        assert_eq!(forward(-11, &turning), Ok(()));
+        assert_eq!(forward(12, &turning), Err(Doubt::Uncommanded));
+        // A drive ending within the window still bounds the flow.
+        assert_eq!(forward(100, &[drive(86), drive(0), drive(0)]), Ok(()));
+        assert_eq!(
+            forward(100, &[drive(86), drive(0), drive(0), drive(0)]),
+            Err(Doubt::Uncommanded)
+        );
+        assert_eq!(forward(i32::MAX, &[]), Ok(()));
+    }
+
     #[test]
     fn commands_beyond_any_robot_are_taken_at_the_limits_without_overflow() {
         let wild = [Some(DriveCommand {
@@ -265,6 +366,10 @@ mod tests {
             Err(Doubt::Uncommanded)
         );
         assert_eq!(verdict(1 << 20, &[turn(i32::MAX); 3]), Ok(()));
+        // The flow: 65,536 mm/s x 1,126 / 1,024 + 1,048 deg/s 10 mm off the axis + 6.
+        assert_eq!(forward(72_064 + 182 + 6, &wild), Ok(()));
+        assert_eq!(forward(72_064 + 182 + 7, &wild), Err(Doubt::Uncommanded));
+        assert_eq!(forward(i32::MIN, &wild), Err(Doubt::Uncommanded));
         assert_eq!(
             verdict(i32::MIN, &[turn(i32::MAX); 3]),
             Err(Doubt::Uncommanded)

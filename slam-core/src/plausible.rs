@@ -14,7 +14,9 @@
 //! last trusted reading stands in for it. A tag that disagrees with the estimate is the
 //! estimator's gate's to refuse (`crate::estimator`).
 
-use crate::commanded::{check_gyro_commanded, CommandTolerance, RecentCommands};
+use crate::commanded::{
+    check_flow_commanded, check_gyro_commanded, CommandTolerance, RecentCommands,
+};
 use crate::frame::{DepthScan, DriveCommand, FlowDelta, GyroRate, BEAMS};
 
 /// The limits the checks hold the readings to.
@@ -40,7 +42,7 @@ pub struct PlausibleConfig {
     pub max_depth_mm: u16,
     /// Plausible readings in a row before a doubted input is trusted again.
     pub trust_after_ticks: u8,
-    /// How far the gyro may read beyond the commanded motion.
+    /// How far the gyro and the flow may read beyond the commanded motion.
     pub command: CommandTolerance,
 }
 
@@ -82,7 +84,8 @@ pub enum Doubt {
     Jump,
     /// Motion read while the robot was held still.
     MovedWhileHeld,
-    /// A turn beyond what the motors were commanded to make ([`crate::commanded`]).
+    /// A turn or a drive beyond what the motors were commanded to make
+    /// ([`crate::commanded`]).
     Uncommanded,
 }
 
@@ -408,6 +411,7 @@ impl Plausibility {
             Some(f) => {
                 let (_, repeats) = self.flow_repeats.push(f);
                 check_flow(f, repeats, drive_held, config)
+                    .and_then(|()| check_flow_commanded(f, &self.commands, &config.command))
             }
             None if self.flow_repeats.last.is_none() => Ok(()),
             None => Err(Doubt::Missing),
