@@ -252,6 +252,37 @@ impl<T: PartialEq + Copy> Repeats<T> {
         };
         (before, self.repeats)
     }
+
+    /// Takes a reading; returns how many repeats end here ([`Repeats::push`] without
+    /// handing back the reading before).
+    #[inline(never)]
+    fn count(&mut self, reading: T) -> u8 {
+        self.repeats = if self.last == Some(reading) {
+            self.repeats.saturating_add(1)
+        } else {
+            0
+        };
+        self.last = Some(reading);
+        self.repeats
+    }
+}
+
+/// A scan's ranges as a word each, a zone with no return as [`PackedScan::NO_RETURN`]:
+/// what [`Repeats`] keeps of a scan, compared and copied in aligned words, where the
+/// scan's own halfwords take a library copy.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+struct PackedScan([u32; BEAMS]);
+
+impl PackedScan {
+    /// No 16-bit range.
+    const NO_RETURN: u32 = 1 << 16;
+
+    fn of(scan: &DepthScan) -> PackedScan {
+        PackedScan(
+            scan.ranges_mm
+                .map(|r| r.map_or(PackedScan::NO_RETURN, u32::from)),
+        )
+    }
 }
 
 /// The gyro's checks: a rate no robot turns at, a jump no robot makes, one value stuck,
@@ -356,7 +387,7 @@ pub struct Plausibility {
     depth: Watch,
     gyro_repeats: Repeats<GyroRate>,
     flow_repeats: Repeats<FlowDelta>,
-    depth_repeats: Repeats<DepthScan>,
+    depth_repeats: Repeats<PackedScan>,
     /// The newest trusted readings taken while the robot was not held, to stand in for
     /// the tick a doubt begins.
     moving_gyro: Option<GyroRate>,
@@ -409,7 +440,7 @@ impl Plausibility {
         self.gyro.judge(gyro_verdict, after);
         let flow_verdict = match flow {
             Some(f) => {
-                let (_, repeats) = self.flow_repeats.push(f);
+                let repeats = self.flow_repeats.count(f);
                 check_flow(f, repeats, drive_held, config)
                     .and_then(|()| check_flow_commanded(f, &self.commands, &config.command))
             }
@@ -418,7 +449,7 @@ impl Plausibility {
         };
         self.flow.judge(flow_verdict, after);
         if let Some(scan) = depth {
-            let (_, repeats) = self.depth_repeats.push(*scan);
+            let repeats = self.depth_repeats.count(PackedScan::of(scan));
             self.depth.judge(check_depth(scan, repeats, config), after);
         }
 
@@ -509,6 +540,34 @@ mod tests {
         assert_eq!(verdicts[4..], [Err(Doubt::Stuck); 2]);
         // A new value starts the count again.
         assert_eq!(repeats.push(rate(31_490)).1, 0);
+    }
+
+    #[test]
+    fn packed_scans_repeat_as_the_scans() {
+        let scans = [
+            [None; BEAMS],
+            [None; BEAMS],
+            [Some(u16::MAX); BEAMS],
+            [Some(u16::MAX); BEAMS],
+            [Some(0); BEAMS],
+            [Some(0); BEAMS],
+            [Some(0); BEAMS],
+            [None, Some(0), None, None, None, None, None, None],
+            [None; BEAMS],
+            [None, None, None, None, None, None, None, Some(1_000)],
+            [None, None, None, None, None, None, None, Some(1_000)],
+        ];
+        let (mut whole, mut packed) = (Repeats::default(), Repeats::default());
+        let counts: std::vec::Vec<_> = scans
+            .iter()
+            .map(|&ranges_mm| {
+                let scan = DepthScan { ranges_mm };
+                let n = packed.count(PackedScan::of(&scan));
+                assert_eq!(whole.push(scan).1, n);
+                n
+            })
+            .collect();
+        assert_eq!(counts, [0, 1, 0, 1, 0, 1, 2, 0, 0, 0, 1]);
     }
 
     #[test]
