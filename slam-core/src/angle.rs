@@ -87,6 +87,29 @@ impl Angle {
         (self + Angle::QUARTER_TURN).sin()
     }
 
+    /// `(self.sin(), self.cos())`, bit for bit, with the quadrant worked out once: the
+    /// cosine's mirrored argument is the sine's complement, its sign negative in the
+    /// second and third quadrants.
+    pub fn sin_cos(self) -> (i32, i32) {
+        let quadrant = self.0 >> 30;
+        let within = self.0 & ((1 << 30) - 1);
+        let other = (1u32 << 30) - within;
+        let (x_sin, x_cos) = if quadrant & 1 == 1 {
+            (other, within)
+        } else {
+            (within, other)
+        };
+        let (sin, cos) = (quarter_sine(x_sin), quarter_sine(x_cos));
+        (
+            if quadrant >= 2 { -sin } else { sin },
+            if quadrant == 1 || quadrant == 2 {
+                -cos
+            } else {
+                cos
+            },
+        )
+    }
+
     /// The direction of the vector `(x, y)` in the heading convention: `atan2(x, y)`,
     /// 0 along +y, a quarter turn along +x. `(0, 0)` gives zero.
     ///
@@ -399,6 +422,25 @@ const ATAN_TABLE: [u32; 24] = [
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn sin_cos_is_the_sine_and_the_cosine() {
+        let edges = [
+            0,
+            1,
+            (1 << 30) - 1,
+            1 << 30,
+            (1 << 30) + 1,
+            1 << 31,
+            3 << 30,
+            u32::MAX,
+        ];
+        let steps = (0..1u32 << 20).map(|k| k << 12 | (k.wrapping_mul(2_654_435_761) >> 20));
+        for bits in edges.into_iter().chain(steps) {
+            let a = Angle::from_bits(bits);
+            assert_eq!(a.sin_cos(), (a.sin(), a.cos()), "{bits}");
+        }
+    }
 
     #[test]
     fn bit_width_is_the_leading_zeros_one() {

@@ -74,7 +74,11 @@ impl PoseHistory {
     pub fn at(&self, age_us: u32) -> Option<Pose> {
         let mut newer: Option<(u32, &Entry)> = None;
         let mut age = 0u32;
-        for e in self.newest_first() {
+        // Newest first, by index round the ring: no chained iterators in the step.
+        let mut index = self.newest;
+        for _ in 0..self.len {
+            let e = self.entries.get(index)?;
+            index = index.checked_sub(1).unwrap_or(HISTORY_LEN - 1);
             if age >= age_us {
                 return Some(match newer {
                     // Here `newer_age < age_us <= age`, so the span is never zero.
@@ -99,6 +103,7 @@ impl PoseHistory {
     }
 
     /// The held entries, newest first.
+    #[cfg(test)]
     fn newest_first(&self) -> impl Iterator<Item = &Entry> {
         let (recent, older) = self.entries.split_at((self.newest + 1).min(HISTORY_LEN));
         recent.iter().rev().chain(older.iter().rev()).take(self.len)
@@ -171,6 +176,43 @@ mod tests {
             );
         }
         h
+    }
+
+    /// [`PoseHistory::at`] as it was written with chained iterators.
+    fn at_by_iterators(h: &PoseHistory, age_us: u32) -> Option<Pose> {
+        let mut newer: Option<(u32, &Entry)> = None;
+        let mut age = 0u32;
+        for e in h.newest_first() {
+            if age >= age_us {
+                return Some(match newer {
+                    Some((newer_age, n)) if age > age_us => {
+                        interpolate(&e.pose, &n.pose, age - age_us, age - newer_age)
+                    }
+                    _ => e.pose,
+                });
+            }
+            newer = Some((age, e));
+            age = age.saturating_add(e.dt_us);
+        }
+        None
+    }
+
+    #[test]
+    fn the_ring_is_walked_as_by_iterators() {
+        // Every fill and every place of the newest entry in the ring, ticks of uneven
+        // lengths, ages across the whole history and past it.
+        for n in 0..3 * HISTORY_LEN as u32 {
+            let mut h = PoseHistory::new(Pose::from_mm_mdeg(0, 0, 0));
+            for i in 1..=n {
+                h.push(
+                    Pose::from_mm_mdeg(37 * i as i32, -11 * i as i32, 7_000 * i as i64),
+                    TICK_US + 1_000 * i,
+                );
+            }
+            for age in (0..700_000).step_by(4_999).chain([u32::MAX]) {
+                assert_eq!(h.at(age), at_by_iterators(&h, age), "{n} {age}");
+            }
+        }
     }
 
     #[test]

@@ -139,7 +139,7 @@ pub fn motion(
 /// turn (the arc's chord direction), then the turn is added.
 pub fn apply(pose: &Pose, m: &Motion) -> Pose {
     let mid = pose.heading + Angle::from_bits((m.turn_bits / 2) as u32);
-    let (s, c) = (mid.sin(), mid.cos());
+    let (s, c) = mid.sin_cos();
     // nose = (sin h, cos h), right = (cos h, -sin h)
     let dx = along(m.forward_um, s) + along(m.right_um, c);
     let dy = along(m.forward_um, c) - along(m.right_um, s);

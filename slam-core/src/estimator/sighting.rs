@@ -113,7 +113,7 @@ impl Estimator {
         // bearing off the nose, the heading taken off by the angle-difference formulas.
         let clamp = |v: i64| v.clamp(-(i32::MAX as i64), i32::MAX as i64) as i32;
         let (sin, cos) = sin_cos_of_vector(clamp(dx_um), clamp(dy_um));
-        let (sin_h, cos_h) = (then.heading.sin(), then.heading.cos());
+        let (sin_h, cos_h) = then.heading.sin_cos();
         // Each product rounds, so a sum can reach one unit past 1.0, which the products
         // below take as out of range: held within the unit circle.
         let unit = |v: i32| v.clamp(-TRIG_ONE, TRIG_ONE);
