@@ -676,7 +676,8 @@ mod tests {
                 for j in i + 1..N {
                     let limit = ((m[i][i] as f64) * (m[j][j] as f64)).sqrt();
                     let r = 1.0 - (rng.within(1 << 12).abs() as f64) / f64::from(1 << (6 + n % 8));
-                    let v = (limit * r) as i32 * if rng.within(1) < 0 { -1 } else { 1 };
+                    let v =
+                        ((limit * r) as i32).wrapping_mul(if rng.within(1) < 0 { -1 } else { 1 });
                     m[i][j] = v;
                     m[j][i] = v;
                 }

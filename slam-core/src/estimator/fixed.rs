@@ -390,8 +390,9 @@ mod tests {
             let v = ((next() >> 40) as i64 % ((1 << 17) + 1)) - (1 << 16);
             assert_eq!(mul_q16_unit(x, v as i32), mul_shift(x, v, 16), "{x} {v}");
             let r = next();
-            let k: [i64; 6] =
-                core::array::from_fn(|i| (next() as i64) >> (r % 40 + 24 + i as u64 % 3));
+            let k: [i64; 6] = core::array::from_fn(|i| {
+                (next() as i64).wrapping_shr((r % 40 + 24 + i as u64 % 3) as u32)
+            });
             let x = (next() as i64) >> (r % 56 + 8);
             let shift = (r >> 32) as u32 % 20 + 1;
             let want: [i64; 6] = core::array::from_fn(|i| mul_shift(k[i], x, shift));
