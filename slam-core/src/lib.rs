@@ -25,6 +25,7 @@ pub mod odometry;
 pub mod plausible;
 pub mod pose;
 pub mod slam;
+pub mod tag_range;
 pub mod tagfix;
 
 pub use angle::Angle;

@@ -12,12 +12,15 @@
 //! ([`crate::guard`]), so the core takes a doubted input as reading "still" from the
 //! tick after the doubt began; on that first tick the robot was still moving, and the
 //! last trusted reading stands in for it. A tag that disagrees with the estimate is the
-//! estimator's gate's to refuse (`crate::estimator`).
+//! estimator's gate's to refuse (`crate::estimator`); a depth range that disagrees with a
+//! tag's distance doubts the depth sensor until the two agree again
+//! ([`crate::tag_range`]).
 
 use crate::commanded::{
     check_flow_commanded, check_gyro_commanded, CommandTolerance, RecentCommands,
 };
 use crate::frame::{DepthScan, DriveCommand, FlowDelta, GyroRate, BEAMS};
+use crate::tag_range::{TagRangeConfig, Witness};
 
 /// The limits the checks hold the readings to.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -44,6 +47,8 @@ pub struct PlausibleConfig {
     pub trust_after_ticks: u8,
     /// How far the gyro and the flow may read beyond the commanded motion.
     pub command: CommandTolerance,
+    /// How the depth sensor's ranges are held to the tags' distances.
+    pub tag_range: TagRangeConfig,
 }
 
 impl PlausibleConfig {
@@ -61,6 +66,7 @@ impl PlausibleConfig {
         max_depth_mm: 4_500,
         trust_after_ticks: 3,
         command: CommandTolerance::SEED,
+        tag_range: TagRangeConfig::SEED,
     };
 }
 
@@ -87,20 +93,24 @@ pub enum Doubt {
     /// A turn or a drive beyond what the motors were commanded to make
     /// ([`crate::commanded`]).
     Uncommanded,
+    /// A depth range that disagrees with the distance the camera reads to a tag in its
+    /// beam ([`crate::tag_range`]); only a tag that agrees lifts it.
+    DisagreesWithTag,
 }
 
 impl Doubt {
     /// Every doubt, in the order of [`Doubt::code`].
-    pub const ALL: [Doubt; 6] = [
+    pub const ALL: [Doubt; 7] = [
         Doubt::Missing,
         Doubt::Stuck,
         Doubt::Impossible,
         Doubt::Jump,
         Doubt::MovedWhileHeld,
         Doubt::Uncommanded,
+        Doubt::DisagreesWithTag,
     ];
 
-    /// A small number for the wire: 1 to 6 (0 is "trusted").
+    /// A small number for the wire: 1 to 7 (0 is "trusted").
     pub fn code(self) -> u8 {
         self as u8 + 1
     }
@@ -407,7 +417,8 @@ impl Plausibility {
     }
 
     /// Judges a tick's readings, with the command the motors were driven with as the
-    /// tick's interval ended (`None`: not known). The robot is taken as held since the
+    /// tick's interval ended (`None`: not known) and what the camera's tags said of the
+    /// depth scan ([`crate::tag_range::witness`]). The robot is taken as held since the
     /// last tick where the trust then lacked what its motion needs (turns: the gyro;
     /// drives: the flow as well). An input never heard from is not doubted for being
     /// missing: the robot waits for its sensors before it moves.
@@ -420,6 +431,7 @@ impl Plausibility {
         flow: Option<FlowDelta>,
         depth: Option<&DepthScan>,
         commanded: Option<DriveCommand>,
+        tags: Witness,
         config: &PlausibleConfig,
     ) -> Judged {
         let before = self.trust();
@@ -450,7 +462,18 @@ impl Plausibility {
         self.flow.judge(flow_verdict, after);
         if let Some(scan) = depth {
             let repeats = self.depth_repeats.count(PackedScan::of(scan));
-            self.depth.judge(check_depth(scan, repeats, config), after);
+            let verdict = check_depth(scan, repeats, config).and(match tags {
+                Witness::Disagrees => Err(Doubt::DisagreesWithTag),
+                Witness::Agrees | Witness::Silent => Ok(()),
+            });
+            // A sensor doubted for what a tag showed is trusted again only on tags'
+            // word: a frame no tag checks says nothing of its ranges.
+            let unheard = verdict.is_ok()
+                && tags == Witness::Silent
+                && self.depth.doubt == Some(Doubt::DisagreesWithTag);
+            if !unheard {
+                self.depth.judge(verdict, after);
+            }
         }
 
         let trust = self.trust();
@@ -640,8 +663,9 @@ mod tests {
     #[test]
     fn trust_comes_back_after_enough_good_readings_in_a_row() {
         let mut p = Plausibility::default();
-        let tick =
-            |p: &mut Plausibility, g: Option<i32>| p.judge(g.map(rate), None, None, None, &C);
+        let tick = |p: &mut Plausibility, g: Option<i32>| {
+            p.judge(g.map(rate), None, None, None, Witness::Silent, &C)
+        };
         // Never heard: not doubted, nothing known.
         let first = tick(&mut p, None);
         assert_eq!((first.trust, first.gyro), (Trust::default(), Known::Lost));
@@ -672,14 +696,35 @@ mod tests {
     #[test]
     fn a_doubted_flow_holds_drives_not_turns() {
         let mut p = Plausibility::default();
-        p.judge(Some(rate(0)), Some(flow(86, 0)), None, None, &C);
-        let garbage = p.judge(Some(rate(0)), Some(flow(9_000, 0)), None, None, &C);
+        p.judge(
+            Some(rate(0)),
+            Some(flow(86, 0)),
+            None,
+            None,
+            Witness::Silent,
+            &C,
+        );
+        let garbage = p.judge(
+            Some(rate(0)),
+            Some(flow(9_000, 0)),
+            None,
+            None,
+            Witness::Silent,
+            &C,
+        );
         assert_eq!(garbage.trust.flow, Some(Doubt::Impossible));
         assert_eq!(garbage.flow, Known::Read(flow(86, 0)));
         assert_eq!(garbage.trust.lacking(true, false), None);
         assert_eq!(garbage.trust.lacking(false, true), Some(Input::Flow));
         assert!(!garbage.trust.pose());
-        let held = p.judge(Some(rate(0)), Some(flow(1, 0)), None, None, &C);
+        let held = p.judge(
+            Some(rate(0)),
+            Some(flow(1, 0)),
+            None,
+            None,
+            Witness::Silent,
+            &C,
+        );
         assert_eq!(held.flow, Known::Still);
     }
 

@@ -14,6 +14,9 @@ use crate::matcher::{Sweep, SWEEP_TICKS};
 use crate::odometry::{self, OdometryConfig};
 use crate::plausible::{Judged, Known, Plausibility, PlausibleConfig, Trust};
 use crate::pose::{mul_q16, Pose, RigidMotion};
+use crate::tag_range::Witness;
+#[cfg(feature = "tag-range")]
+use crate::tag_range::{self, ZoneColumns};
 use crate::tagfix::{self, CameraConfig, FixConfig, FixOutcome, FixRejection, TagMap};
 
 /// The depth sensor's fan and the mapper's range limit.
@@ -268,6 +271,9 @@ pub struct Slam<const W: usize, const H: usize> {
     map_uncertainty: MapUncertainty,
     /// The inputs' checks and trust.
     plausibility: Plausibility,
+    /// The depth zones as the camera's columns, to hold ranges to tags' distances.
+    #[cfg(feature = "tag-range")]
+    zones: ZoneColumns,
 }
 
 impl<const W: usize, const H: usize> Slam<W, H> {
@@ -295,6 +301,8 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             last_match: None,
             map_uncertainty: MapUncertainty::default(),
             plausibility: Plausibility::default(),
+            #[cfg(feature = "tag-range")]
+            zones: ZoneColumns::new(&config.depth, &config.camera),
         })
     }
 
@@ -392,6 +400,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
                 frame.flow,
                 frame.depth.as_ref(),
                 frame.commanded,
+                self.tags_on_depth(frame, limits),
                 limits,
             ),
             None => Judged::believing(frame.gyro, frame.flow),
@@ -462,6 +471,18 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             counters: self.counters,
             estimate: self.estimate(),
         }
+    }
+
+    /// What the picture's tags say of the depth scan ([`crate::tag_range`]); silent in a
+    /// core built without the `tag-range` feature.
+    #[cfg(feature = "tag-range")]
+    fn tags_on_depth(&self, frame: &SensorFrame, limits: &PlausibleConfig) -> Witness {
+        tag_range::witness(&self.zones, frame, &limits.tag_range)
+    }
+
+    #[cfg(not(feature = "tag-range"))]
+    fn tags_on_depth(&self, _: &SensorFrame, _: &PlausibleConfig) -> Witness {
+        Witness::Silent
     }
 
     /// Dead reckoning with the learned calibration, and the covariance carried along.

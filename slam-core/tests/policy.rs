@@ -194,3 +194,50 @@ fn a_gyro_reading_more_turn_than_commanded_is_doubted_and_the_turn_held() {
         assert_eq!(slam.step(&told(k, honest, Some(turn))).trust.gyro, None);
     }
 }
+
+#[test]
+#[cfg(feature = "tag-range")]
+fn a_depth_sensor_that_disagrees_with_a_tag_is_not_mapped_until_a_tag_agrees() {
+    let mut slam = robot();
+    // A tag straight ahead at the wall's 800 mm (the picture's centre column).
+    let tag = |distance_mm: u32| slam_core::TagDetection {
+        id: 99,
+        cx_centipx: 16_000 + 300,
+        distance_mm,
+    };
+    let mut k = 0;
+    let mut step = |slam: &mut Robot, offset_mm: u16, seen: Option<u32>| {
+        k += 1;
+        let mut f = frame(k, Some(0));
+        if let Some(scan) = &mut f.depth {
+            for r in scan.ranges_mm.iter_mut().flatten() {
+                *r += offset_mm;
+            }
+        }
+        if let Some(d) = seen {
+            f.tags.push(tag(d)).expect("room for a tag");
+        }
+        slam.step(&f)
+    };
+    for _ in 0..5 {
+        let r = step(&mut slam, 0, Some(806));
+        assert_eq!(r.trust.depth, None);
+        assert!(r.cells_written > 0);
+    }
+    // Every range 150 mm long: the tag in view says the wall is nearer.
+    let lying = step(&mut slam, 150, Some(806));
+    assert_eq!(lying.trust.depth, Some(Doubt::DisagreesWithTag));
+    assert_eq!(lying.cells_written, 0);
+    assert_eq!(lying.counters.scans_withheld, 1);
+    // With no tag in view nothing vouches for the ranges, however plausible.
+    for _ in 0..10 {
+        let r = step(&mut slam, 0, None);
+        assert_eq!(r.trust.depth, Some(Doubt::DisagreesWithTag));
+        assert_eq!(r.cells_written, 0);
+    }
+    // Tags that agree again: trusted after the usual run of good readings.
+    let agreed: Vec<StepReport> = (0..3).map(|_| step(&mut slam, 0, Some(806))).collect();
+    assert_eq!(agreed[1].trust.depth, Some(Doubt::DisagreesWithTag));
+    assert_eq!(agreed[2].trust.depth, None);
+    assert!(agreed[2].cells_written > 0);
+}
