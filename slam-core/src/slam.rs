@@ -246,6 +246,34 @@ pub struct StepReport {
     pub estimate: Option<Estimate>,
 }
 
+impl StepReport {
+    /// The report of a step.
+    ///
+    /// Out of line and not generic: the step is generic over the grid's size, so the
+    /// firmware builds it for size, where the 60-byte copy of the counters is a byte-wise
+    /// library `memcpy`; built here, for speed, it is a few word loads and stores.
+    #[inline(never)]
+    fn of(
+        pose: &Pose,
+        fix: FixOutcome,
+        stale: Staleness,
+        trust: Trust,
+        cells_written: u32,
+        counters: &Counters,
+        filter: Option<&Estimator>,
+    ) -> StepReport {
+        StepReport {
+            pose: *pose,
+            fix,
+            stale,
+            trust,
+            cells_written,
+            counters: *counters,
+            estimate: filter.map(Estimator::estimate),
+        }
+    }
+}
+
 /// The SLAM state: a pose, a map and the rules to update them.
 #[derive(Clone, Debug)]
 pub struct Slam<const W: usize, const H: usize> {
@@ -462,15 +490,15 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             }
             None => 0,
         };
-        StepReport {
-            pose: self.pose,
+        StepReport::of(
+            &self.pose,
             fix,
             stale,
             trust,
             cells_written,
-            counters: self.counters,
-            estimate: self.estimate(),
-        }
+            &self.counters,
+            (self.config.localiser == Localiser::Filter).then_some(&self.estimator),
+        )
     }
 
     /// What the picture's tags say of the depth scan ([`crate::tag_range`]); silent in a
