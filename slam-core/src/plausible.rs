@@ -696,35 +696,24 @@ mod tests {
     #[test]
     fn a_doubted_flow_holds_drives_not_turns() {
         let mut p = Plausibility::default();
-        p.judge(
-            Some(rate(0)),
-            Some(flow(86, 0)),
-            None,
-            None,
-            Witness::Silent,
-            &C,
-        );
-        let garbage = p.judge(
-            Some(rate(0)),
-            Some(flow(9_000, 0)),
-            None,
-            None,
-            Witness::Silent,
-            &C,
-        );
+        let mut still_turning_at = |forward: i32| {
+            p.judge(
+                Some(rate(0)),
+                Some(flow(forward, 0)),
+                None,
+                None,
+                Witness::Silent,
+                &C,
+            )
+        };
+        still_turning_at(86);
+        let garbage = still_turning_at(9_000);
         assert_eq!(garbage.trust.flow, Some(Doubt::Impossible));
         assert_eq!(garbage.flow, Known::Read(flow(86, 0)));
         assert_eq!(garbage.trust.lacking(true, false), None);
         assert_eq!(garbage.trust.lacking(false, true), Some(Input::Flow));
         assert!(!garbage.trust.pose());
-        let held = p.judge(
-            Some(rate(0)),
-            Some(flow(1, 0)),
-            None,
-            None,
-            Witness::Silent,
-            &C,
-        );
+        let held = still_turning_at(1);
         assert_eq!(held.flow, Known::Still);
     }
 

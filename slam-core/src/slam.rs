@@ -386,7 +386,12 @@ impl<const W: usize, const H: usize> Slam<W, H> {
     /// The filter's belief: the pose's covariance and the learned calibration
     /// ([`Localiser::Filter`] only).
     pub fn estimate(&self) -> Option<Estimate> {
-        (self.config.localiser == Localiser::Filter).then(|| self.estimator.estimate())
+        self.filter().map(Estimator::estimate)
+    }
+
+    /// The filter, when it is the localiser.
+    fn filter(&self) -> Option<&Estimator> {
+        (self.config.localiser == Localiser::Filter).then_some(&self.estimator)
     }
 
     /// Tag sightings the filter used and refused, by cause.
@@ -497,7 +502,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             trust,
             cells_written,
             &self.counters,
-            (self.config.localiser == Localiser::Filter).then_some(&self.estimator),
+            self.filter(),
         )
     }
 

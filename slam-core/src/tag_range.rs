@@ -59,8 +59,8 @@ pub struct ZoneColumns {
     columns_centipx: [i32; 2 * BEAMS + 1],
     /// Each zone's width in columns, as its reciprocal in Q16.
     per_width_q16: [i32; BEAMS],
-    /// Columns a turn of [`ZoneColumns::TURN_UNIT`] moves a tag near the picture's
-    /// centre, as `(scale, bits)`: `scale / 2^bits`, `scale` under 2^10.
+    /// Columns a turn of one turn unit ([`ZoneColumns::TURN_UNIT_BITS`]) moves a tag
+    /// near the picture's centre, as `(scale, bits)`: `scale / 2^bits`, `scale` under 2^10.
     per_turn: (i32, u32),
 }
 
@@ -207,8 +207,9 @@ pub enum Witness {
 
 /// What the tags of `frame`'s picture say of its depth scan: the first tag that can be
 /// compared decides (one comparison a tick: a sensor whose every range is off shows in
-/// any tag, and the robot's costliest ticks are those with two tags in view). The picture and the scan have their own ages; the turn between
-/// them, at the gyro's rate (none: taken as still), moves the tags' columns first.
+/// any tag, and the robot's costliest ticks are those with two tags in view). The
+/// picture and the scan have their own ages; the turn between them, at the gyro's rate
+/// (none: taken as still), moves the tags' columns first.
 ///
 /// Out of line: once a tick, and it returns at once when no tag is in view.
 #[inline(never)]
@@ -267,12 +268,11 @@ fn compare(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::frame::GyroRate;
 
     fn zones() -> ZoneColumns {
         ZoneColumns::new(&DepthConfig::SEED, &CameraConfig::SEED)
     }
-
-    use crate::frame::GyroRate;
 
     /// `witness` of a frame with `scan` and `tags`, the picture `before_us` before the
     /// scan, turning at `rate_mdps`.
@@ -340,6 +340,10 @@ mod tests {
             zones().shift(i32::MIN, i32::MAX) > 0,
             "saturates, never wraps"
         );
+        // A long focal length keeps its scale under 2^10 with fewer bits.
+        assert_eq!(turn_scale(CameraConfig::SEED.focal_centipx).1, 16);
+        let (scale, bits) = turn_scale(1 << 30);
+        assert!(scale < 1 << 10 && bits < 16, "{scale} {bits}");
     }
 
     #[test]
