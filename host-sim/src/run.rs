@@ -462,7 +462,10 @@ fn run_sized<const W: usize, const H: usize>(
         let truth = robot.truth();
         let (flow, gyro) = robot.take_odometry(MIN_FLOW_QUALITY);
         let mut frame = SensorFrame {
-            dt_us,
+            // The first frame is the run's start: no time has passed since a frame before
+            // it, and the gyro has not yet read (the firmware's first frame comes a tick
+            // after its tasks start, with a reading).
+            dt_us: if ticks.is_empty() { 0 } else { dt_us },
             flow,
             gyro,
             // The simulated depth sensor reads at the tick.

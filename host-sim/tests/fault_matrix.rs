@@ -73,7 +73,7 @@ const OTHER_WINDOWS: [(f64, &str, &[&str]); 4] = [
     (
         12.0,
         "driving up the mat towards the tags",
-        &["camera-stuck", "camera-wrong", "camera-slow"],
+        &["camera-wrong", "camera-slow"],
     ),
     (
         20.0,

@@ -130,3 +130,44 @@ fn heading_only_leaves_the_position() {
     );
     assert!((corrected.heading - m.prediction.heading).to_millidegrees() > 400);
 }
+
+/// A match whose heading and position are correlated (a sweep turned against a wall moves
+/// its ends across it) still leaves the filter no surer of its position than the map
+/// is: the heading, measured given the position, carries some position in it, and its
+/// floor counts that.
+#[test]
+fn a_correlated_match_leaves_the_position_no_surer_than_the_map() {
+    // Unsure of its place in the world by 30 cm; the map it matches against is off by up
+    // to 25 cm (drawn while dead reckoning), its heading known to 0.1 degrees.
+    let mut filter = Estimator::new(EstimatorConfig {
+        initial_position_mm: 300,
+        initial_heading_mdeg: 2_000,
+        ..EstimatorConfig::SEED
+    });
+    let sixteenths = |mm: i64| mm * 16;
+    let radians_q16 = |mdeg: i64| mdeg * 65_536 * 314_159 / (180_000 * 100_000);
+    let map = MapUncertainty {
+        position: sixteenths(250) * sixteenths(250),
+        heading: radians_q16(100) * radians_q16(100),
+    };
+    let (sx, sh) = (5_000i64, 500i64);
+    let mut m = hand_made(
+        20_000,
+        0,
+        800,
+        (sx, 40_000, sh),
+        Pins::AllButAlong(Angle::ZERO),
+    );
+    m.wide = Angle::ZERO;
+    m.covariance.xh_um_mdeg = sx * sh * 9 / 10;
+    filter
+        .apply_match(&m, &NOISE, &map)
+        .expect("within the gate");
+    let xx = filter.covariance().get(State::X, State::X);
+    assert!(
+        xx >= map.position * 99 / 100,
+        "x deviation {:.0} mm, the map's {:.0} mm",
+        (xx as f64).sqrt() / 16.0,
+        (map.position as f64).sqrt() / 16.0
+    );
+}

@@ -15,14 +15,20 @@
 //! for free, flat where the sweep cannot tell poses apart. Gauss-Newton on an interpolated
 //! grid (Hector) needs gradients, products and a 3 x 3 solve per iteration in fixed
 //! point, a number of iterations nobody can bound, and a Hessian that says nothing honest
-//! about a corridor. With 5 cm cells and a 1 cm step the window of +-3 cm and +-2 degrees
-//! is about one cell wide, so each beam end's cells are looked up once per heading
+//! about a corridor. With 5 cm cells and a 1 cm step the window of +-3 cm is about one
+//! cell wide, so each beam end's cells are looked up once per heading
 //! (`footprint`) and spread over the translations.
 //!
 //! **The window.** Ten ticks (one second) of scans make one sweep ([`SWEEP_TICKS`]): see
 //! there. The search is `SIDE` steps along x and y and `TURNS` headings, sizes by const
-//! generics; [`SeedMatcher`] is 7 x 7 x 9 (+-3 cm in 1 cm steps, +-2 degrees in
+//! generics; [`SeedMatcher`] is 7 x 7 x 17 (+-3 cm in 1 cm steps, +-4 degrees in
 //! half-degree steps).
+//!
+//! **The map's edge.** The map lags the sweep, so a sweep's newest ends run past the walls
+//! mapped so far: along a wall driven beside, round a turn on the spot. Pulling them back
+//! onto those walls scores, and the surface rises towards the window's edge whatever the
+//! truth. A surface whose best lies on a face of the window pins nothing along the
+//! direction it rises ([`surface::Rising`]).
 //!
 //! **Evidence kept apart.** A sweep matched against the beams it has just written matches
 //! itself. With matching on, a scan is written into the map only when it leaves the sweep,
@@ -53,8 +59,11 @@ use search::Surface;
 /// Most beam ends a sweep of [`SWEEP_TICKS`] ticks holds.
 pub const SWEEP_POINTS: usize = SWEEP_TICKS * BEAMS;
 
-/// The seed's matcher: 7 x 7 translations (+-3 cm) at 9 headings (+-2 degrees).
-pub type SeedMatcher = Matcher<7, 9>;
+/// The seed's matcher: 7 x 7 translations (+-3 cm) at 17 headings (+-4 degrees): a spin
+/// on the spot that comes back to walls mapped a turn before finds them turned by the
+/// gyro's scale error (up to 3.6 degrees a turn at 1 %), inside the window rather than on
+/// its edge.
+pub type SeedMatcher = Matcher<7, 17>;
 
 /// The search's steps, scores and thresholds.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -92,7 +101,7 @@ impl MatcherConfig {
         scores: EndpointScores::SEED,
         halving: 4,
         unpinned_pct: 20,
-        unpinned_heading_pct: 40,
+        unpinned_heading_pct: 20,
     };
 }
 
@@ -129,6 +138,35 @@ pub enum Pins {
     PositionOnly,
     /// Heading only.
     HeadingOnly,
+}
+
+impl Pins {
+    /// These pins less the position along `rising` (a line); `wide` is the line the
+    /// position was already unpinned along, if it was. Two lines apart by more than an
+    /// eighth of a turn leave no position pinned.
+    fn unpinning(self, rising: Angle, wide: Angle) -> Result<Pins, MatchRefusal> {
+        // Lines: within an eighth of a turn of each other, or of each other reversed.
+        let apart = (rising - wide).signed_bits().unsigned_abs();
+        let eighth = 1u32 << 29;
+        let near = apart <= eighth || apart >= (1u32 << 31) - eighth;
+        Ok(match self {
+            Pins::All => Pins::AllButAlong(rising),
+            Pins::PositionOnly => Pins::AcrossOnly(rising),
+            Pins::AllButAlong(_) if near => Pins::AllButAlong(rising),
+            Pins::AcrossOnly(_) if near => Pins::AcrossOnly(rising),
+            Pins::AllButAlong(_) | Pins::HeadingOnly => Pins::HeadingOnly,
+            Pins::AcrossOnly(_) => return Err(MatchRefusal::NothingPinned),
+        })
+    }
+
+    /// These pins less the heading.
+    fn without_heading(self) -> Result<Pins, MatchRefusal> {
+        match self {
+            Pins::All | Pins::PositionOnly => Ok(Pins::PositionOnly),
+            Pins::AllButAlong(line) | Pins::AcrossOnly(line) => Ok(Pins::AcrossOnly(line)),
+            Pins::HeadingOnly => Err(MatchRefusal::NothingPinned),
+        }
+    }
 }
 
 /// Why a sweep gave no match.
@@ -243,6 +281,9 @@ impl<const SIDE: usize, const TURNS: usize> Matcher<SIDE, TURNS> {
         })
     }
 
+    /// Headings searched at most.
+    pub const HEADINGS: usize = TURNS;
+
     /// The configuration in use.
     pub fn config(&self) -> &MatcherConfig {
         &self.config
@@ -293,6 +334,16 @@ impl<const SIDE: usize, const TURNS: usize> Matcher<SIDE, TURNS> {
         }
         let pins = self.pins(&m.covariance_q16, m.best == m.worst)?;
         let wide = surface::spread(&m.covariance_q16).wide.1;
+        let rising = surface::rising::<SIDE, TURNS>(&m);
+        let (pins, wide) = match rising.position {
+            Some(line) => (pins.unpinning(line, wide)?, line),
+            None => (pins, wide),
+        };
+        let pins = if rising.heading {
+            pins.without_heading()?
+        } else {
+            pins
+        };
 
         let (step_um, step_mdeg) = (i64::from(c.step_mm) * 1000, i64::from(c.step_mdeg));
         let q8 = |v: i32, unit: i64| (i64::from(v) * unit + 128) >> 8;

@@ -42,6 +42,12 @@ pub(super) struct Moments {
     pub best: i32,
     /// The lowest score computed (pruned headings aside).
     pub worst: i32,
+    /// The offset from the prediction of the best candidate nearest it, `[x, y,
+    /// heading]`, in steps.
+    pub peak: [i64; 3],
+    /// The least-squares slope over the translations of each one's best score over the
+    /// headings, `[x, y]` (unnormalised): which way the position's fit improves.
+    pub slope: [i64; 2],
     /// Mean offset from the prediction, `[x, y, heading]`, in 1/256 of a step.
     pub mean_q8: [i32; 3],
     /// Covariance about the mean, in 1/65536 of a step squared, `[x, y, heading]`.
@@ -92,8 +98,29 @@ pub(super) fn moments<const SIDE: usize, const TURNS: usize>(
             })
         })
     };
+    let mut slope = [0i64; 2];
+    for j in 0..SIDE {
+        for i in 0..SIDE {
+            let top = surface
+                .iter()
+                .filter_map(|plane| plane.get(j).and_then(|row| row.get(i)))
+                .copied()
+                .filter(|&s| s != PRUNED)
+                .max();
+            if let Some(top) = top {
+                slope[0] += (i as i64 - half_side) * i64::from(top);
+                slope[1] += (j as i64 - half_side) * i64::from(top);
+            }
+        }
+    }
     let (mut total, mut sum) = (0i64, [0i64; 3]);
+    let mut peak = [0i64; 3];
+    let mut peak_distance = i64::MAX;
     for (offset, s) in candidates() {
+        let distance = offset.iter().map(|o| o * o).sum::<i64>();
+        if s == best && distance < peak_distance {
+            (peak, peak_distance) = (offset, distance);
+        }
         let w = weight(s);
         total += w;
         for (acc, o) in sum.iter_mut().zip(offset) {
@@ -128,6 +155,8 @@ pub(super) fn moments<const SIDE: usize, const TURNS: usize>(
     Some(Moments {
         best,
         worst,
+        peak,
+        slope,
         mean_q8,
         covariance_q16,
     })
@@ -157,17 +186,52 @@ pub(super) fn spread(c: &[[i64; 3]; 3]) -> Spread {
     } else {
         v
     };
+    Spread {
+        wide: (wide, line_of(x, y)),
+        narrow,
+    }
+}
+
+/// The line through the vector `(x, y)`, as the angle of its direction within a quarter
+/// turn of +y.
+pub(super) fn line_of(x: i64, y: i64) -> Angle {
     let mut along = Angle::of_vector(x, y);
     let quarter = Angle::QUARTER_TURN.signed_bits();
     if along.signed_bits() >= quarter || along.signed_bits() < -quarter {
         along += Angle::HALF_TURN;
     }
-    Spread {
-        wide: (wide, along),
-        narrow,
-    }
+    along
 }
 
+/// Where the surface still rises at the window's edge: its best candidate nearest the
+/// prediction lies on a face of the window, so the best fit is outside what was
+/// searched, or nowhere. A sweep's newest ends run past the walls the map holds so far
+/// (the map lags the sweep), and pulling them back onto those walls scores: along a wall
+/// driven beside, round a turn on the spot. The surface's moments say nothing true along
+/// a rising direction.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(super) struct Rising {
+    /// The position line along which it rises, if it does.
+    pub position: Option<Angle>,
+    /// Whether it rises at a heading face.
+    pub heading: bool,
+}
+
+/// Where the moments `m` of a `SIDE` x `SIDE` x `TURNS` window leave it rising. The
+/// position's line is the surface's slope, not the peak's offset: a ramp along a wall
+/// with a peak across it puts the peak in a corner of the window, off the wall's line.
+pub(super) fn rising<const SIDE: usize, const TURNS: usize>(m: &Moments) -> Rising {
+    let (half, half_turns) = ((SIDE / 2) as i64, (TURNS / 2) as i64);
+    let [px, py, ph] = m.peak;
+    let line = match m.slope {
+        [0, 0] => line_of(px, py),
+        [sx, sy] => line_of(sx, sy),
+    };
+    Rising {
+        position: (px.abs() >= half || py.abs() >= half).then_some(line),
+        heading: ph.abs() >= half_turns,
+    }
+}
 /// The variance, in 1/65536 step squared, of a uniform spread over `2 half + 1` steps.
 pub(super) const fn uniform_q16(half: i64) -> i64 {
     (half * half + half) * 65536 / 3
