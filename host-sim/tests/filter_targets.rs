@@ -191,19 +191,30 @@ fn worst_out_of_place_pct(runs: &[Figures]) -> f64 {
     })
 }
 
-/// Issue 11, the seed mat without tags under `slam`: final error at most 3 cm, at most
-/// 5 cm over the run, heading within 2 degrees, at most 1 % of black cells out of place.
+/// Issue 11, the seed mat without tags under `slam`: at most 5 cm off over the run, and
+/// at most 1 % of black cells out of place, on every seed.
+#[test]
+fn the_seed_mat_without_tags_holds_its_map() {
+    let runs = runs("seed-mat-no-tags.toml", PoseMode::Slam);
+    let max_cm = worst(&runs, |f| f.max_error_cm);
+    let out = worst_out_of_place_pct(&runs);
+    assert!(
+        max_cm <= 5.0 && out <= 1.0,
+        "max {max_cm:.2} cm, {out:.1} % out of place"
+    );
+}
+
+/// Issue 11, the seed mat without tags under `slam`: final error at most 3 cm, heading
+/// within 2 degrees.
 #[test]
 #[ignore = "issue 11: not met yet (README: --pose slam on seed-mat-no-tags)"]
 fn the_seed_mat_without_tags() {
     let runs = runs("seed-mat-no-tags.toml", PoseMode::Slam);
     let final_cm = worst(&runs, |f| f.final_error_cm);
-    let max_cm = worst(&runs, |f| f.max_error_cm);
     let heading = worst(&runs, |f| f.max_heading_error_deg);
-    let out = worst_out_of_place_pct(&runs);
     assert!(
-        final_cm <= 3.0 && max_cm <= 5.0 && heading <= 2.0 && out <= 1.0,
-        "final {final_cm:.2} cm, max {max_cm:.2} cm, heading {heading:.2} deg, {out:.1} % out of place"
+        final_cm <= 3.0 && heading <= 2.0,
+        "final {final_cm:.2} cm, heading {heading:.2} deg"
     );
 }
 
@@ -235,7 +246,7 @@ fn the_corridor_is_consistent() {
 /// Issue 11: no tick moves the estimate more than 3 cm beyond the robot's own motion, on
 /// any shipped scenario under `slam`.
 #[test]
-#[ignore = "issue 11: the first tag after 20 s in the dark moves the pose 6-8 cm at once (two-wall-room, room-10m)"]
+#[ignore = "issue 11: room-10m's first tag after 20 s in the dark moves the pose 6-6.5 cm at once; two-wall-room 3.2-4.3 cm, the corridor up to 7.2 (README)"]
 fn no_jump_over_3_cm() {
     for name in SHIPPED {
         let runs = runs(name, PoseMode::Slam);
