@@ -1,6 +1,7 @@
 //! `cargo xtask lint`: formatting, then clippy with `-D warnings` on the host crates and on
 //! the firmware for its own target (the root workspace excludes the firmware, so the host
-//! clippy never sees it).
+//! clippy never sees it), then the host crates' docs with rustdoc's warnings as errors (a
+//! link to an item that moved or is private).
 
 use crate::{cargo, run_cmd, stage};
 
@@ -17,5 +18,12 @@ pub fn run() -> Result<(), String> {
             "warnings",
         ]))
     })?;
-    stage::timed("clippy-firmware", crate::firmware::clippy)
+    stage::timed("clippy-firmware", crate::firmware::clippy)?;
+    stage::timed("doc", || {
+        run_cmd(
+            cargo()
+                .args(["doc", "--workspace", "--no-deps"])
+                .env("RUSTDOCFLAGS", "-D warnings"),
+        )
+    })
 }

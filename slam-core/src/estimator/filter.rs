@@ -264,11 +264,11 @@ impl Estimator {
     }
 
     /// Forgets what the filter knew of the heading when it is sure of its pose (the
-    /// position within [`SURE_POSITION_MM`], the heading within
-    /// [`FORGOTTEN_HEADING_MDEG`]) and every sighting has refused it for a while: a pose
+    /// position within `SURE_POSITION_MM`, the heading within
+    /// `FORGOTTEN_HEADING_MDEG`) and every sighting has refused it for a while: a pose
     /// held sure against the tags, as after a gyro bias jump no tag saw. The pose's
     /// correlations are dropped and the heading's deviation raised to
-    /// [`FORGOTTEN_HEADING_MDEG`], and the next sighting is taken past the gate, so that
+    /// `FORGOTTEN_HEADING_MDEG`, and the next sighting is taken past the gate, so that
     /// it turns the robot back (its bearing is far more certain than that heading) and
     /// the correction is not learned as a gyro error; the next updates settle the whole
     /// matrix ([`Estimator::settle`]). A filter already unsure is left alone: its gate is

@@ -77,7 +77,7 @@ pub fn mul_q16_unit(x: i64, v: i32) -> i64 {
 
 /// `k[i] * x / 2^shift` rounded to nearest for every `i`, the same as [`mul_shift`] on
 /// each: in single 32-bit multiplies when every product and its rounding fit 32 bits (a
-/// converged filter's gains times an innovation), else by [`round_mul_each`].
+/// converged filter's gains times an innovation), else by `round_mul_each`.
 pub fn mul_shift_each<const L: usize>(k: &[i64; L], x: i64, shift: u32) -> [i64; L] {
     let largest = k.iter().fold(0u64, |m, k| m.max(k.unsigned_abs()));
     let small = largest <= i32::MAX as u64
@@ -325,7 +325,7 @@ impl Reciprocal {
         }
     }
 
-    /// [`Reciprocal::times`] of each entry, the same bits, by [`round_mul_each`].
+    /// [`Reciprocal::times`] of each entry, the same bits, by `round_mul_each`.
     pub fn times_each<const L: usize>(&self, x: &[i64; L], extra: u32) -> [i64; L] {
         let shift = self.shift - extra as i32;
         if !(1..62).contains(&shift) {

@@ -28,7 +28,7 @@
 //! mapped so far: along a wall driven beside, round a turn on the spot. Pulling them back
 //! onto those walls scores, and the surface rises towards the window's edge whatever the
 //! truth. A surface whose best lies on a face of the window pins nothing along the
-//! direction it rises ([`surface::Rising`]).
+//! direction it rises (`surface::Rising`).
 //!
 //! **Evidence kept apart.** A sweep matched against the beams it has just written matches
 //! itself. With matching on, a scan is written into the map only when it leaves the sweep,
