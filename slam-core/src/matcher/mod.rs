@@ -405,3 +405,50 @@ impl<const SIDE: usize, const TURNS: usize> Matcher<SIDE, TURNS> {
         Ok(pins)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const ALONG_X: Angle = Angle::QUARTER_TURN;
+
+    #[test]
+    fn a_rising_line_unpins_the_position_along_it() {
+        assert_eq!(
+            Pins::All.unpinning(ALONG_X, Angle::ZERO),
+            Ok(Pins::AllButAlong(ALONG_X))
+        );
+        assert_eq!(
+            Pins::PositionOnly.unpinning(ALONG_X, Angle::ZERO),
+            Ok(Pins::AcrossOnly(ALONG_X))
+        );
+        // Already unpinned along nearly the same line: the same pins, the rising line.
+        let near = ALONG_X + Angle::from_millidegrees(20_000);
+        assert_eq!(
+            Pins::AllButAlong(near).unpinning(ALONG_X, near),
+            Ok(Pins::AllButAlong(ALONG_X))
+        );
+        // Along another line: no position left.
+        assert_eq!(
+            Pins::AllButAlong(Angle::ZERO).unpinning(ALONG_X, Angle::ZERO),
+            Ok(Pins::HeadingOnly)
+        );
+        assert_eq!(
+            Pins::AcrossOnly(Angle::ZERO).unpinning(ALONG_X, Angle::ZERO),
+            Err(MatchRefusal::NothingPinned)
+        );
+    }
+
+    #[test]
+    fn a_rising_heading_unpins_the_heading() {
+        assert_eq!(Pins::All.without_heading(), Ok(Pins::PositionOnly));
+        assert_eq!(
+            Pins::AllButAlong(ALONG_X).without_heading(),
+            Ok(Pins::AcrossOnly(ALONG_X))
+        );
+        assert_eq!(
+            Pins::HeadingOnly.without_heading(),
+            Err(MatchRefusal::NothingPinned)
+        );
+    }
+}

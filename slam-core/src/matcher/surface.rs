@@ -245,3 +245,52 @@ fn round_div(a: i64, b: i64) -> i64 {
         (a - b / 2) / b
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn degrees(a: Angle) -> f64 {
+        f64::from(a.signed_bits()) * 360.0 / 4_294_967_296.0
+    }
+
+    /// Moments with only the peak and the slope set, of a 7 x 7 x 17 window.
+    fn peaked(peak: [i64; 3], slope: [i64; 2]) -> Rising {
+        rising::<7, 17>(&Moments {
+            best: 1,
+            worst: 0,
+            peak,
+            slope,
+            mean_q8: [0; 3],
+            covariance_q16: [[0; 3]; 3],
+        })
+    }
+
+    #[test]
+    fn a_peak_inside_the_window_rises_nowhere() {
+        let r = peaked([2, -2, 7], [100, 5]);
+        assert_eq!(r.position, None);
+        assert!(!r.heading);
+    }
+
+    #[test]
+    fn a_peak_on_a_face_rises_along_the_slope_not_the_peak() {
+        // On the -x face and off the middle in y: the slope, nearly along x, is the line.
+        let line = peaked([-3, 2, 0], [-300, 10]).position.expect("on a face");
+        assert!(
+            (degrees(line).abs() - 90.0).abs() < 3.0,
+            "{}",
+            degrees(line)
+        );
+        // No slope at all: the peak's own offset.
+        let line = peaked([3, 3, 0], [0, 0]).position.expect("in a corner");
+        assert!((degrees(line) - 45.0).abs() < 1.0, "{}", degrees(line));
+    }
+
+    #[test]
+    fn a_peak_on_a_heading_face_rises_in_heading() {
+        assert!(peaked([0, 0, -8], [0, 0]).heading);
+        assert!(peaked([0, 0, 8], [0, 0]).heading);
+        assert!(!peaked([0, 0, 7], [0, 0]).heading);
+    }
+}
