@@ -311,19 +311,19 @@ impl Components {
                 row.get(k)
                     .map_or(0, |&v| v.clamp(-(1 << 16), 1 << 16) as i32)
             };
-            // The floor along this row: the map's own uncertainty (position along x and
-            // y, the heading) seen along it. A measurement conditioned on an earlier one
-            // mixes position and heading, and must not leave the filter surer of the
-            // position in it than the map is.
-            let floor = [
+            // The floor along this row: the map's own uncertainty (the position's along x
+            // and along y alike, the heading's) seen along it. A measurement conditioned
+            // on an earlier one mixes position and heading, and must not leave the filter
+            // surer of the position in it than the map is.
+            let (position, heading) = (
                 floors[Component::Across as usize],
-                floors[Component::Along as usize],
                 floors[Component::Heading as usize],
-            ]
-            .iter()
-            .enumerate()
-            .map(|(k, &f)| mul_shift(square(i64::from(e(k))), f, 32))
-            .fold(0i64, i64::saturating_add);
+            );
+            let floor = [position, position, heading]
+                .iter()
+                .enumerate()
+                .map(|(k, &f)| mul_shift(square(i64::from(e(k))), f, 32))
+                .fold(0i64, i64::saturating_add);
             out[i] = Scalar {
                 h: [(State::X, e(0)), (State::Y, e(1)), (State::Heading, e(2))],
                 nu,

@@ -232,6 +232,7 @@ pub(super) fn rising<const SIDE: usize, const TURNS: usize>(m: &Moments) -> Risi
         heading: ph.abs() >= half_turns,
     }
 }
+
 /// The variance, in 1/65536 step squared, of a uniform spread over `2 half + 1` steps.
 pub(super) const fn uniform_q16(half: i64) -> i64 {
     (half * half + half) * 65536 / 3
