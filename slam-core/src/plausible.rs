@@ -696,7 +696,7 @@ mod tests {
     #[test]
     fn a_doubted_flow_holds_drives_not_turns() {
         let mut p = Plausibility::default();
-        let mut still_turning_at = |forward: i32| {
+        let mut not_turning_with_flow = |forward: i32| {
             p.judge(
                 Some(rate(0)),
                 Some(flow(forward, 0)),
@@ -706,14 +706,14 @@ mod tests {
                 &C,
             )
         };
-        still_turning_at(86);
-        let garbage = still_turning_at(9_000);
+        not_turning_with_flow(86);
+        let garbage = not_turning_with_flow(9_000);
         assert_eq!(garbage.trust.flow, Some(Doubt::Impossible));
         assert_eq!(garbage.flow, Known::Read(flow(86, 0)));
         assert_eq!(garbage.trust.lacking(true, false), None);
         assert_eq!(garbage.trust.lacking(false, true), Some(Input::Flow));
         assert!(!garbage.trust.pose());
-        let held = still_turning_at(1);
+        let held = not_turning_with_flow(1);
         assert_eq!(held.flow, Known::Still);
     }
 

@@ -334,7 +334,7 @@ impl<const SIDE: usize, const TURNS: usize> Matcher<SIDE, TURNS> {
         }
         let pins = self.pins(&m.covariance_q16, m.best == m.worst)?;
         let wide = surface::spread(&m.covariance_q16).wide.1;
-        let rising = surface::rising::<SIDE, TURNS>(&m);
+        let rising = surface::rising(&self.surface, &m.peak);
         let (pins, wide) = match rising.position {
             Some(line) => (pins.unpinning(line, wide)?, line),
             None => (pins, wide),

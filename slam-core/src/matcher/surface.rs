@@ -45,9 +45,6 @@ pub(super) struct Moments {
     /// The offset from the prediction of the best candidate nearest it, `[x, y,
     /// heading]`, in steps.
     pub peak: [i64; 3],
-    /// The least-squares slope over the translations of each one's best score over the
-    /// headings, `[x, y]` (unnormalised): which way the position's fit improves.
-    pub slope: [i64; 2],
     /// Mean offset from the prediction, `[x, y, heading]`, in 1/256 of a step.
     pub mean_q8: [i32; 3],
     /// Covariance about the mean, in 1/65536 of a step squared, `[x, y, heading]`.
@@ -98,21 +95,6 @@ pub(super) fn moments<const SIDE: usize, const TURNS: usize>(
             })
         })
     };
-    let mut slope = [0i64; 2];
-    for j in 0..SIDE {
-        for i in 0..SIDE {
-            let top = surface
-                .iter()
-                .filter_map(|plane| plane.get(j).and_then(|row| row.get(i)))
-                .copied()
-                .filter(|&s| s != PRUNED)
-                .max();
-            if let Some(top) = top {
-                slope[0] += (i as i64 - half_side) * i64::from(top);
-                slope[1] += (j as i64 - half_side) * i64::from(top);
-            }
-        }
-    }
     let (mut total, mut sum) = (0i64, [0i64; 3]);
     let mut peak = [0i64; 3];
     let mut peak_distance = i64::MAX;
@@ -156,7 +138,6 @@ pub(super) fn moments<const SIDE: usize, const TURNS: usize>(
         best,
         worst,
         peak,
-        slope,
         mean_q8,
         covariance_q16,
     })
@@ -217,20 +198,46 @@ pub(super) struct Rising {
     pub heading: bool,
 }
 
-/// Where the moments `m` of a `SIDE` x `SIDE` x `TURNS` window leave it rising. The
-/// position's line is the surface's slope, not the peak's offset: a ramp along a wall
-/// with a peak across it puts the peak in a corner of the window, off the wall's line.
-pub(super) fn rising<const SIDE: usize, const TURNS: usize>(m: &Moments) -> Rising {
+/// Where a `SIDE` x `SIDE` x `TURNS` surface whose best candidate nearest the prediction
+/// is `peak` (in steps) still rises. The position's line is the surface's slope, not the
+/// peak's offset: a ramp along a wall with a peak across it puts the peak in a corner of
+/// the window, off the wall's line.
+pub(super) fn rising<const SIDE: usize, const TURNS: usize>(
+    surface: &Surface<SIDE, TURNS>,
+    peak: &[i64; 3],
+) -> Rising {
     let (half, half_turns) = ((SIDE / 2) as i64, (TURNS / 2) as i64);
-    let [px, py, ph] = m.peak;
-    let line = match m.slope {
-        [0, 0] => line_of(px, py),
-        [sx, sy] => line_of(sx, sy),
-    };
+    let [px, py, ph] = *peak;
+    let on_face = px.abs() >= half || py.abs() >= half;
     Rising {
-        position: (px.abs() >= half || py.abs() >= half).then_some(line),
+        position: on_face.then(|| match slope(surface) {
+            [0, 0] => line_of(px, py),
+            [sx, sy] => line_of(sx, sy),
+        }),
         heading: ph.abs() >= half_turns,
     }
+}
+
+/// The least-squares slope over the translations of each one's best score over the
+/// headings, `[x, y]` (unnormalised): which way the position's fit improves.
+fn slope<const SIDE: usize, const TURNS: usize>(surface: &Surface<SIDE, TURNS>) -> [i64; 2] {
+    let half = (SIDE / 2) as i64;
+    let mut slope = [0i64; 2];
+    for j in 0..SIDE {
+        for i in 0..SIDE {
+            let top = surface
+                .iter()
+                .filter_map(|plane| plane.get(j).and_then(|row| row.get(i)))
+                .copied()
+                .filter(|&s| s != PRUNED)
+                .max();
+            if let Some(top) = top {
+                slope[0] += (i as i64 - half) * i64::from(top);
+                slope[1] += (j as i64 - half) * i64::from(top);
+            }
+        }
+    }
+    slope
 }
 
 /// The variance, in 1/65536 step squared, of a uniform spread over `2 half + 1` steps.
@@ -255,16 +262,18 @@ mod tests {
         f64::from(a.signed_bits()) * 360.0 / 4_294_967_296.0
     }
 
-    /// Moments with only the peak and the slope set, of a 7 x 7 x 17 window.
+    /// Where a 7 x 7 x 17 surface rises with its best at `peak` and its scores sloping
+    /// `slope` (per step along x and y), the same at every heading.
     fn peaked(peak: [i64; 3], slope: [i64; 2]) -> Rising {
-        rising::<7, 17>(&Moments {
-            best: 1,
-            worst: 0,
-            peak,
-            slope,
-            mean_q8: [0; 3],
-            covariance_q16: [[0; 3]; 3],
-        })
+        let mut surface = [[[0i32; 7]; 7]; 17];
+        for plane in surface.iter_mut() {
+            for (j, row) in plane.iter_mut().enumerate() {
+                for (i, s) in row.iter_mut().enumerate() {
+                    *s = ((i as i64 - 3) * slope[0] + (j as i64 - 3) * slope[1]) as i32;
+                }
+            }
+        }
+        rising::<7, 17>(&surface, &peak)
     }
 
     #[test]
