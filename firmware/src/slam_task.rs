@@ -43,7 +43,8 @@ const TICKS_PER_LOG: u32 = 10;
 pub const START_POSE: Pose = world::START;
 
 /// What corrects the pose beyond odometry: the filter, which takes every tag sighting and
-/// learns the gyro's and the flow sensor's errors (`host-sim run --pose slam`). The
+/// learns the gyro's and the flow sensor's errors (`host-sim run --pose filter`; with the
+/// `matching` feature it also matches the depth scans against the map, `--pose slam`). The
 /// `two-tag-fix` feature flies the seed's two-tag fix instead (`--pose tags`). The
 /// telemetry's `Hello` says which, so the viewer and the emulator checks know.
 pub const LOCALISER: Localiser = if cfg!(feature = "two-tag-fix") {
@@ -208,7 +209,9 @@ pub async fn slam_task(
 
     let reports = REPORTS.sender();
     let mut streamer =
-        Streamer::new(TELEMETRY_SCHEDULE, FIRMWARE_VERSION, LOCALISER).with_boot(boot);
+        Streamer::new(TELEMETRY_SCHEDULE, FIRMWARE_VERSION, LOCALISER)
+            .with_matching(world::slam_config(LOCALISER).matching.is_some())
+            .with_boot(boot);
     let mut health = LoopCounters::default();
     let mut ticker = Ticker::every(TICK);
     let mut deadline = Instant::now() + TICK;

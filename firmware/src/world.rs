@@ -5,8 +5,8 @@
 
 use embassy_time::Duration;
 use slam_core::{
-    Angle, CameraConfig, GridGeometry, KnownTag, Localiser, OdometryConfig, Pose, Slam, SlamConfig,
-    TagMap,
+    Angle, CameraConfig, GridGeometry, KnownTag, Localiser, MatchingConfig, OdometryConfig, Pose,
+    Slam, SlamConfig, TagMap,
 };
 
 use crate::motion::Leg;
@@ -19,7 +19,8 @@ pub type WorldSlam = Slam<GRID_COLUMNS, GRID_ROWS>;
 /// The core's configuration: the robot's tuning on this world's grid, with its tags and
 /// the sensors' calibration from its file (as `world::robot::slam_config` sets them for
 /// `host-sim`), the depth beams along the VL53L5CX's zone columns (the drivers' tests
-/// hold the seed's fan to it), and the pose corrected by `localiser`.
+/// hold the seed's fan to it), and the pose corrected by `localiser`; with the `matching`
+/// feature the filter also matches each second's scans against the map.
 pub fn slam_config(localiser: Localiser) -> SlamConfig {
     let mut config = SlamConfig::on_grid(GEOMETRY, TagMap::new(&TAGS).unwrap_or_default());
     config.depth.beam_angles = slam_core::slam::fan(i64::from(drivers::depth::FOV_MDEG));
@@ -29,5 +30,7 @@ pub fn slam_config(localiser: Localiser) -> SlamConfig {
     config.estimator.max_range_mm = CAMERA_MAX_RANGE_MM;
     config.estimator.half_view_mdeg = CAMERA_HALF_VIEW_MDEG;
     config.localiser = localiser;
+    config.matching = (cfg!(feature = "matching") && matches!(localiser, Localiser::Filter))
+        .then_some(MatchingConfig::SEED);
     config
 }

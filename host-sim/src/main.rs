@@ -95,8 +95,8 @@ fn cmd_run(args: RunArgs) -> Result<(), Failure> {
     let scenario = load(&args.scenario)?;
     let seed = args.seed.unwrap_or(scenario.seed);
     // A live session plays the run's telemetry stream, so it needs one too.
-    let mut writer = (args.telemetry.is_some() || args.live.wanted())
-        .then(|| TelemetryWriter::new(args.pose.localiser()));
+    let mut writer =
+        (args.telemetry.is_some() || args.live.wanted()).then(|| TelemetryWriter::new(args.pose));
     // The servers listen before the run, so a port in use is said at once.
     let mut session = if args.live.wanted() {
         let world = WorldOutline::of(&host_sim::world::World::new(&scenario));

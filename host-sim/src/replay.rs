@@ -220,7 +220,7 @@ pub fn replay(
             _ => None,
         })
         .ok_or(ReplayError::NoHello)?;
-    let own = PoseMode::of_localiser(hello.localiser);
+    let own = PoseMode::of_hello(&hello);
     let mode = match pose {
         Some(PoseMode::Truth) => return Err(ReplayError::Truth),
         Some(mode) => mode,
@@ -296,7 +296,7 @@ impl Run<'_> {
         let mut slam: Box<Slam<W, H>> =
             Box::new(Slam::new(config, start).map_err(|e| ReplayError::Config(format!("{e:?}")))?);
         slam.limit_map(self.robot_width, self.robot_height);
-        let mut writer = TelemetryWriter::new(self.mode.localiser());
+        let mut writer = TelemetryWriter::new(self.mode);
         let mut check = self.robot_settings.then(BitForBit::default);
         let mut summary = ReplaySummary {
             pose: self.mode.name().to_string(),

@@ -18,6 +18,7 @@ use slam_core::{
 };
 use std::fmt;
 use std::str::FromStr;
+use wire::telemetry::Hello;
 
 /// The SLAM tick, seconds.
 pub const TICK_S: f64 = 0.1;
@@ -81,12 +82,19 @@ impl PoseMode {
         }
     }
 
-    /// The mode a robot's stream names by its localiser: the firmware never matches.
-    pub fn of_localiser(localiser: Localiser) -> PoseMode {
-        match localiser {
-            Localiser::DeadReckoning => PoseMode::DeadReckoning,
-            Localiser::TwoTagFix => PoseMode::Tags,
-            Localiser::Filter => PoseMode::Filter,
+    /// Whether the filter matches scans against the map in this mode.
+    pub fn matches(self) -> bool {
+        matches!(self, PoseMode::Match | PoseMode::Slam)
+    }
+
+    /// The mode a stream's `Hello` names by its localiser and whether it matches: the
+    /// filter with matching is `slam` (a robot keeps the world's tags).
+    pub fn of_hello(hello: &Hello) -> PoseMode {
+        match (hello.localiser, hello.matching) {
+            (Localiser::DeadReckoning, _) => PoseMode::DeadReckoning,
+            (Localiser::TwoTagFix, _) => PoseMode::Tags,
+            (Localiser::Filter, false) => PoseMode::Filter,
+            (Localiser::Filter, true) => PoseMode::Slam,
         }
     }
 
@@ -94,8 +102,7 @@ impl PoseMode {
     /// localiser, matching for `match` and `slam`, and no tags for `match`.
     pub fn configure(self, config: &mut SlamConfig) {
         config.localiser = self.localiser();
-        config.matching =
-            matches!(self, PoseMode::Match | PoseMode::Slam).then_some(MatchingConfig::SEED);
+        config.matching = self.matches().then_some(MatchingConfig::SEED);
         if self == PoseMode::Match {
             config.tags = TagMap::default();
         }

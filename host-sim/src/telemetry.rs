@@ -18,13 +18,13 @@ use crate::floor::floor_mask;
 use crate::record::{
     Belief, CellBelief, MapSnapshot, RunRecord, TickRecord, TrueCalibration, WorldOutline,
 };
+use crate::run::PoseMode;
 use crate::score::{map_counts, out_of_place_mask, pose_errors, real_mask, PoseErrors};
 use crate::truth::{route_start_s, truth_at, TruthSample};
 use crate::world::World;
 use serde::Serialize;
 use slam_core::{
-    Counters, FixOutcome, GridGeometry, GridMap, Localiser, Occupancy, SensorFrame, StepReport,
-    TagCounters,
+    Counters, FixOutcome, GridGeometry, GridMap, Occupancy, SensorFrame, StepReport, TagCounters,
 };
 use std::fmt;
 use std::io::{self, Read};
@@ -55,11 +55,12 @@ pub struct TelemetryWriter {
 }
 
 impl TelemetryWriter {
-    /// An empty stream on the firmware's default schedule, from a robot whose pose
-    /// `localiser` corrects (its `Hello` says so).
-    pub fn new(localiser: Localiser) -> TelemetryWriter {
+    /// An empty stream on the firmware's default schedule, from a robot whose pose is
+    /// corrected as `mode` says (its `Hello` says so).
+    pub fn new(mode: PoseMode) -> TelemetryWriter {
         TelemetryWriter {
-            streamer: Streamer::new(Schedule::DEFAULT, simulator_firmware(), localiser),
+            streamer: Streamer::new(Schedule::DEFAULT, simulator_firmware(), mode.localiser())
+                .with_matching(mode.matches()),
             bytes: Vec::new(),
             encode_errors: 0,
         }
@@ -436,7 +437,7 @@ impl TelemetryRecorder {
                 )
             }),
             grid: self.hello.map(|h| (h.width, h.height)),
-            localiser: self.hello.map(|h| localiser_name(h.localiser).to_string()),
+            localiser: self.hello.map(|h| localiser_name(&h).to_string()),
             boot: self.hello.map(|h| h.boot),
             free: map.free as usize,
             occupied: map.occupied as usize,
@@ -466,14 +467,9 @@ impl TelemetryRecorder {
     }
 }
 
-/// The name `--pose` gives the mode that flies `localiser` (a stream's `Hello` cannot
-/// tell whether the core also matched scans, so the filter is `filter`).
-pub fn localiser_name(localiser: Localiser) -> &'static str {
-    match localiser {
-        Localiser::DeadReckoning => "dead-reckoning",
-        Localiser::TwoTagFix => "tags",
-        Localiser::Filter => "filter",
-    }
+/// The name `--pose` gives the mode a stream's `Hello` names.
+pub fn localiser_name(hello: &Hello) -> &'static str {
+    crate::run::PoseMode::of_hello(hello).name()
 }
 
 /// Whether a cell byte is a firm belief under `scale`.

@@ -327,6 +327,7 @@ fn the_largest_shipped_grid_is_drawn_cell_for_cell() {
         occupied_above: 16,
         firmware: FirmwareVersion::default(),
         localiser: Localiser::Filter,
+        matching: false,
         boot: Default::default(),
     };
     server.push(&Message::Hello(hello));

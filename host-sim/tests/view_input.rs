@@ -265,6 +265,7 @@ fn filter_beliefs_join_their_ticks_and_reach_the_summary() {
     let mut bytes = Vec::new();
     bytes.extend(frame(&Message::Hello(Hello {
         localiser: slam_core::Localiser::Filter,
+        matching: false,
         ..hello(4, 3)
     })));
     for n in 1..=3 {

@@ -625,9 +625,18 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             }
             None => 0,
         };
-        let Some(matching) = self.config.matching else {
-            return written;
-        };
+        if let Some(matching) = self.config.matching {
+            self.match_sweep(&matching);
+        }
+        written
+    }
+
+    #[cfg(feature = "matching")]
+    /// Matches the sweep against the map and applies the match through the pose history.
+    /// Its own function, never inlined, so that the firmware's bench can tell a match's
+    /// cycles from the rest of the step's.
+    #[inline(never)]
+    fn match_sweep(&mut self, matching: &MatchingConfig) {
         let outcome = self
             .matcher
             .match_sweep(&self.sweep, &self.config.depth.beam_angles, &self.map)
@@ -645,7 +654,6 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         }
         self.estimator.settle();
         self.match_counters.count(outcome.map(|_| ()));
-        written
     }
 
     fn correct(&mut self, frame: &SensorFrame) -> FixOutcome {

@@ -41,6 +41,7 @@ fn hello() -> Message {
         occupied_above: 16,
         firmware: FW,
         localiser: Localiser::Filter,
+        matching: false,
         boot: Boot::default(),
     })
 }
@@ -237,7 +238,7 @@ fn health_frame_fixture() {
         gyro_start_failures: 2,
         ..SensorHealth::default()
     });
-    let stuffed = sealed(&[0xB7, 3, 0, 1, 0xAC, 0x02, 0, 0, 0, 0, 0, 0, 0, 0, 2]);
+    let stuffed = sealed(&[0xB8, 3, 0, 1, 0xAC, 0x02, 0, 0, 0, 0, 0, 0, 0, 0, 2]);
     assert_eq!(frame(&h), stuffed);
     // No zero before the delimiter.
     assert!(!stuffed[..stuffed.len() - 1].contains(&0));
@@ -270,7 +271,7 @@ fn filter_frame_fixture() {
         },
     });
     let raw = [
-        0xB7, 4, 2, 0xD8, 0x04, 1, 0, 0, 0, 0x80, 0x80, 0x08, 3, 0, 0x80, 0x01, 5, 0, 0, 1, 0, 2,
+        0xB8, 4, 2, 0xD8, 0x04, 1, 0, 0, 0, 0x80, 0x80, 0x08, 3, 0, 0x80, 0x01, 5, 0, 0, 1, 0, 2,
     ];
     assert_eq!(frame(&m), sealed(&raw));
     assert_eq!(decode_all(&sealed(&raw)).0, std::vec![Ok(m)]);
@@ -310,7 +311,7 @@ fn hello_carries_the_boot() {
         let mut body = hello_body(&hello());
         let at = body.len() - from_end;
         body[at] = bad;
-        let mut raw = std::vec![0xB7];
+        let mut raw = std::vec![0xB8];
         raw.extend(body);
         assert_eq!(
             decode_all(&sealed(&raw)).0,
@@ -321,31 +322,38 @@ fn hello_carries_the_boot() {
 }
 
 #[test]
-fn hello_carries_the_localiser() {
-    // The byte before the boot's three: 0 dead reckoning, 1 two-tag fix, 2 filter.
+fn hello_carries_the_localiser_and_matching() {
+    // Before the boot's three bytes: the localiser (0 dead reckoning, 1 two-tag fix,
+    // 2 filter), then whether the filter matches scans (0 or 1).
     for (localiser, byte) in [
         (Localiser::DeadReckoning, 0),
         (Localiser::TwoTagFix, 1),
         (Localiser::Filter, 2),
     ] {
-        let mut m = hello();
-        if let Message::Hello(h) = &mut m {
-            h.localiser = localiser;
+        for matching in [false, true] {
+            let mut m = hello();
+            if let Message::Hello(h) = &mut m {
+                h.localiser = localiser;
+                h.matching = matching;
+            }
+            let body = hello_body(&m);
+            assert_eq!(body.get(body.len() - 5), Some(&byte), "{localiser:?}");
+            assert_eq!(body.get(body.len() - 4), Some(&u8::from(matching)));
+            assert_eq!(decode_all(&frame(&m)).0, std::vec![Ok(m)]);
         }
-        let body = hello_body(&m);
-        assert_eq!(body.get(body.len() - 4), Some(&byte), "{localiser:?}");
-        assert_eq!(decode_all(&frame(&m)).0, std::vec![Ok(m)]);
     }
-    // No fourth localiser.
-    let mut body = hello_body(&hello());
-    let at = body.len() - 4;
-    body[at] = 3;
-    let mut raw = std::vec![0xB7];
-    raw.extend(body);
-    assert_eq!(
-        decode_all(&sealed(&raw)).0,
-        std::vec![Err(FrameError::Body)]
-    );
+    // No fourth localiser, and matching is a bool.
+    for (from_end, bad) in [(5, 3), (4, 2)] {
+        let mut body = hello_body(&hello());
+        let at = body.len() - from_end;
+        body[at] = bad;
+        let mut raw = std::vec![0xB8];
+        raw.extend(body);
+        assert_eq!(
+            decode_all(&sealed(&raw)).0,
+            std::vec![Err(FrameError::Body)]
+        );
+    }
 }
 
 #[test]
@@ -356,7 +364,7 @@ fn inputs_frame_fixture() {
         time_ms: 2,
         frame: SensorFrame::empty(3),
     });
-    let raw = [0xB7, 5, 1, 2, 3, 0, 0, 0, 0, 0, 0, 0, 0];
+    let raw = [0xB8, 5, 1, 2, 3, 0, 0, 0, 0, 0, 0, 0, 0];
     assert_eq!(frame(&m), sealed(&raw));
     assert_eq!(decode_all(&sealed(&raw)).0, std::vec![Ok(m)]);
     // One tag (id 11, cx -1 zigzagged to 1, 300 mm) and a gyro reading of 5 mdps.
@@ -376,7 +384,7 @@ fn inputs_frame_fixture() {
         },
     });
     let raw = [
-        0xB7, 5, 1, 2, 3, 0, 1, 10, 0, 0, 1, 11, 1, 0xAC, 0x02, 0, 0, 0,
+        0xB8, 5, 1, 2, 3, 0, 1, 10, 0, 0, 1, 11, 1, 0xAC, 0x02, 0, 0, 0,
     ];
     assert_eq!(frame(&m), sealed(&raw));
     // Commanded 86 mm/s (zigzag 172) and -31.5 deg/s (zigzag 62,999).
@@ -392,7 +400,7 @@ fn inputs_frame_fixture() {
         },
     });
     let raw = [
-        0xB7, 5, 1, 2, 3, 0, 0, 0, 0, 0, 0, 0, 1, 0xAC, 0x01, 0x97, 0xEC, 0x03,
+        0xB8, 5, 1, 2, 3, 0, 0, 0, 0, 0, 0, 0, 1, 0xAC, 0x01, 0x97, 0xEC, 0x03,
     ];
     assert_eq!(frame(&m), sealed(&raw));
     assert_eq!(decode_all(&sealed(&raw)).0, std::vec![Ok(m)]);
@@ -400,7 +408,7 @@ fn inputs_frame_fixture() {
 
 #[test]
 fn inputs_with_more_tags_than_the_core_holds_are_refused() {
-    let mut raw = std::vec![0xB7, 5, 1, 2, 3, 0, 0, 0, 0];
+    let mut raw = std::vec![0xB8, 5, 1, 2, 3, 0, 0, 0, 0];
     raw.push(u8::try_from(MAX_TAGS + 1).unwrap_or(u8::MAX));
     for _ in 0..=MAX_TAGS {
         raw.extend([1, 0, 0]);
@@ -411,7 +419,7 @@ fn inputs_with_more_tags_than_the_core_holds_are_refused() {
         std::vec![Err(FrameError::Body)]
     );
     // The same with the most it holds decodes.
-    let mut raw = std::vec![0xB7, 5, 1, 2, 3, 0, 0, 0, 0];
+    let mut raw = std::vec![0xB8, 5, 1, 2, 3, 0, 0, 0, 0];
     raw.push(u8::try_from(MAX_TAGS).unwrap_or(u8::MAX));
     for _ in 0..MAX_TAGS {
         raw.extend([1, 0, 0]);
@@ -577,7 +585,7 @@ fn garbage_between_frames_resynchronises() {
     bytes.extend([1, 2, 3, 4, 5, 0]);
     bytes.extend(frame(&tick()));
     bytes.extend([0, 0, 0]); // empty frames: ignored
-    bytes.extend([0xB7, 0x07, 0]); // stuffing that runs past the end
+    bytes.extend([0xB8, 0x07, 0]); // stuffing that runs past the end
     bytes.extend(frame(&health()));
     let (out, stats) = decode_all(&bytes);
     let good: Vec<Message> = out.iter().filter_map(|r| r.clone().ok()).collect();
@@ -650,13 +658,13 @@ fn wrong_version_and_bad_body_are_told_apart() {
     }
 
     for raw in [
-        std::vec![0xB7, 9],                                        // no such variant
-        std::vec![0xB7, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0],             // health cut short
-        std::vec![0xB7, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 7], // a byte left over
-        std::vec![0xB7, 2, 0, 0, 0x81, 0x01],                      // 129 cells announced
-        std::vec![0xB7, 4, 1, 0, 0, 0, 0, 0],                      // filter cut short
-        std::vec![0xB7, 5, 1, 2, 3, 0, 0, 0],                      // inputs cut short
-        std::vec![0xB7, 5, 1, 2, 3, 2],                            // flow option byte 2
+        std::vec![0xB8, 9],                                        // no such variant
+        std::vec![0xB8, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0],             // health cut short
+        std::vec![0xB8, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 7], // a byte left over
+        std::vec![0xB8, 2, 0, 0, 0x81, 0x01],                      // 129 cells announced
+        std::vec![0xB8, 4, 1, 0, 0, 0, 0, 0],                      // filter cut short
+        std::vec![0xB8, 5, 1, 2, 3, 0, 0, 0],                      // inputs cut short
+        std::vec![0xB8, 5, 1, 2, 3, 2],                            // flow option byte 2
     ] {
         assert_eq!(
             decode_all(&sealed(&raw)).0,

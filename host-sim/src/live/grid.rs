@@ -137,6 +137,7 @@ mod tests {
             occupied_above: 16,
             firmware: FirmwareVersion::default(),
             localiser: Localiser::Filter,
+            matching: false,
             boot: Default::default(),
         }
     }

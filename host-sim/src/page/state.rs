@@ -199,7 +199,7 @@ impl PageState {
                 let v = h.firmware;
                 format!("{}.{}.{}", v.major, v.minor, v.patch)
             }),
-            localiser: self.hello.map(|h| localiser_name(h.localiser)),
+            localiser: self.hello.map(|h| localiser_name(&h)),
             health: self.health,
             filter: self.filter.map(|f| {
                 let belief = Belief::new(&f.estimate(), f.tags);

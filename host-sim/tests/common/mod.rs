@@ -52,6 +52,7 @@ pub fn hello(width: u16, height: u16) -> Hello {
         occupied_above: 16,
         firmware: FirmwareVersion::default(),
         localiser: Localiser::TwoTagFix,
+        matching: false,
         boot: Default::default(),
     }
 }

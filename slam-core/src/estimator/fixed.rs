@@ -64,6 +64,13 @@ pub fn mul_shift(a: i64, b: i64, shift: u32) -> i64 {
     }
 }
 
+/// [`mul_shift`] as one shared call rather than inlined: for code run once a match, not
+/// every step, where a hundred inlined copies cost flash and save nothing that counts.
+#[inline(never)]
+pub fn mul_shift_call(a: i64, b: i64, shift: u32) -> i64 {
+    mul_shift(a, b, shift)
+}
+
 /// `x * v / 2^16` rounded to nearest for a Q16 `v` within 1.0 (a sine or cosine): two
 /// 32-bit multiplies when `x` fits 32 bits, the same as [`mul_shift`].
 #[inline]

@@ -15,7 +15,7 @@
 
 use super::covariance::{GAIN_SHIFT, N};
 use super::filter::Estimator;
-use super::fixed::{fits_i32, mul_shift, square, Reciprocal};
+use super::fixed::{fits_i32, mul_shift_call as mul_shift, square, Reciprocal};
 use super::units::{self, FINE_SHIFT};
 use super::State;
 use crate::matcher::{Match, MatchRefusal, Pins};

@@ -204,6 +204,7 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
     }
 
     /// The log odds of a cell, or `None` outside the grid.
+    #[inline]
     pub fn log_odds(&self, column: i32, row: i32) -> Option<LogOdds> {
         if !self.inside(column, row) {
             return None;
@@ -213,11 +214,13 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
     }
 
     /// What the map believes about a cell; outside the grid is unknown.
+    #[inline]
     pub fn occupancy(&self, column: i32, row: i32) -> Occupancy {
         self.log_odds(column, row)
             .map_or(Occupancy::Unknown, |l| self.classify(l))
     }
 
+    #[inline]
     fn classify(&self, l: LogOdds) -> Occupancy {
         if l < -self.evidence.free_below {
             Occupancy::Free

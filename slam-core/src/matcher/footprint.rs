@@ -14,6 +14,7 @@
 //! map access): with 5 cm cells and 1 cm steps, a nearest-cell score is flat over a cell
 //! and the surface a plateau that pins nothing finer than the cell.
 
+use super::divide::Divider;
 use super::score::EndpointScores;
 use crate::grid::GridMap;
 
@@ -44,54 +45,77 @@ pub(super) struct Footprint<const SIDE: usize> {
 }
 
 impl<const SIDE: usize> Footprint<SIDE> {
-    /// The block for an end at grid-relative `(x, y)` millimetres (from the grid's corner)
-    /// when the window's lowest translation is applied, stepping `step_mm` `SIDE - 1`
-    /// times along each axis. `None` if the window spans more than [`FOOTPRINT`] cells.
+    /// A footprint with nothing in it, to fill.
+    pub const EMPTY: Footprint<SIDE> = Footprint {
+        scores: [[0; FOOTPRINT]; FOOTPRINT],
+        x: Steps {
+            cell: [0; SIDE],
+            past: [0; SIDE],
+        },
+        y: Steps {
+            cell: [0; SIDE],
+            past: [0; SIDE],
+        },
+        max: 0,
+        lookups: 0,
+    };
+
+    /// Fills this with the block for an end at grid-relative `(x, y)` millimetres (from
+    /// the grid's corner) when the window's lowest translation is applied, stepping
+    /// `step_mm` `SIDE - 1` times along each axis. `false` if the window spans more than
+    /// [`FOOTPRINT`] cells. Filled in place: a footprint returned by value is copied
+    /// byte by byte on the M0+, several times over.
     #[inline]
-    pub fn of<const W: usize, const H: usize>(
+    pub fn fill<const W: usize, const H: usize>(
+        &mut self,
         map: &GridMap<W, H>,
         scores: &EndpointScores,
         low: (i32, i32),
         step_mm: i32,
-    ) -> Option<Self> {
-        let cell = map.geometry().cell_mm;
+        divider: &Divider,
+    ) -> bool {
+        let cell = divider.divisor();
         // From the cells' centres: the cell whose centre is below and to the left.
-        let (u, v) = (low.0 - cell / 2, low.1 - cell / 2);
-        let (x, columns) = steps::<SIDE>(u, step_mm, cell)?;
-        let (y, rows) = steps::<SIDE>(v, step_mm, cell)?;
-        let (first_column, first_row) = (u.div_euclid(cell), v.div_euclid(cell));
-        let mut block = [[0i16; FOOTPRINT]; FOOTPRINT];
+        let (first_column, within_x) = divider.div_rem(low.0 - cell / 2);
+        let (first_row, within_y) = divider.div_rem(low.1 - cell / 2);
+        let Some(columns) = steps(&mut self.x, within_x, step_mm, cell) else {
+            return false;
+        };
+        let Some(rows) = steps(&mut self.y, within_y, step_mm, cell) else {
+            return false;
+        };
         let mut max = i16::MIN;
-        for (r, row) in block.iter_mut().enumerate().take(rows) {
+        for (r, row) in self.scores.iter_mut().enumerate().take(rows) {
             for (c, slot) in row.iter_mut().enumerate().take(columns) {
                 let s = scores.of(map, first_column + c as i32, first_row + r as i32);
                 *slot = s;
                 max = max.max(s);
             }
         }
-        Some(Footprint {
-            scores: block,
-            x,
-            y,
-            max,
-            lookups: (rows * columns) as u32,
-        })
+        self.max = max;
+        self.lookups = (rows * columns) as u32;
+        true
     }
 }
 
-/// For each of `SIDE` steps of `step_mm` from `low` (millimetres from the first cell
-/// centre's line), the cell below counted from `low`'s, and how many cells the
-/// interpolation needs (one past the last); no division past the first.
+/// Fills `out` for `SIDE` steps of `step_mm` from `within` millimetres past the first
+/// cell centre's line (`0..cell`): for each step the cell below, counted from the first,
+/// and how far past its centre. Returns how many cells the interpolation needs (one past
+/// the last), or `None` past [`FOOTPRINT`] or if a step is longer than a cell.
 #[inline]
-fn steps<const SIDE: usize>(low: i32, step_mm: i32, cell: i32) -> Option<(Steps<SIDE>, usize)> {
-    let mut within = low.rem_euclid(cell);
+fn steps<const SIDE: usize>(
+    out: &mut Steps<SIDE>,
+    mut within: i32,
+    step_mm: i32,
+    cell: i32,
+) -> Option<usize> {
+    if step_mm > cell {
+        return None;
+    }
     let mut index = 0u8;
-    let mut out = Steps {
-        cell: [0u8; SIDE],
-        past: [0i16; SIDE],
-    };
     for (slot, past) in out.cell.iter_mut().zip(out.past.iter_mut()) {
-        while within >= cell {
+        // At most one cell a step: a compare, where a loop would be compiled to a divide.
+        if within >= cell {
             within -= cell;
             index += 1;
         }
@@ -100,5 +124,5 @@ fn steps<const SIDE: usize>(low: i32, step_mm: i32, cell: i32) -> Option<(Steps<
         within += step_mm;
     }
     let cells = usize::from(index) + 2;
-    (cells <= FOOTPRINT).then_some((out, cells))
+    (cells <= FOOTPRINT).then_some(cells)
 }

@@ -2,6 +2,7 @@
 //! sure that is.
 //!
 //! - `sweep`: the last ticks' scans, placed relative to each other by the odometry;
+//! - `divide`: floor division by a number fixed for the search, without a divide;
 //! - `score`: what a beam end scores in an occupied, a free or an unknown cell;
 //! - `footprint`: the coarse level, the cells each end can reach over the window and
 //!   their maximum;
@@ -40,6 +41,7 @@
 //! tick's, so a match computed later (on the other core) is applied at that moment
 //! through the pose history, as a tag picture is.
 
+mod divide;
 mod footprint;
 mod score;
 mod search;
@@ -115,7 +117,8 @@ impl Default for MatcherConfig {
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum MatcherConfigError {
-    /// `SIDE` and `TURNS` must be odd (the prediction in the middle) and at least 3.
+    /// `SIDE` and `TURNS` must be odd (the prediction in the middle), at least 3 and at
+    /// most 255.
     Window,
     /// Steps must be positive, and the translation window no wider than
     /// [`FOOTPRINT`] - 2 cells.
@@ -260,7 +263,12 @@ pub struct Matcher<const SIDE: usize, const TURNS: usize> {
 impl<const SIDE: usize, const TURNS: usize> Matcher<SIDE, TURNS> {
     /// A matcher, once its window and configuration are checked against `cell_mm`.
     pub fn new(config: MatcherConfig, cell_mm: i32) -> Result<Self, MatcherConfigError> {
-        if SIDE < 3 || TURNS < 3 || SIDE.is_multiple_of(2) || TURNS.is_multiple_of(2) || SIDE > 255
+        if SIDE < 3
+            || TURNS < 3
+            || SIDE.is_multiple_of(2)
+            || TURNS.is_multiple_of(2)
+            || SIDE > 255
+            || TURNS > 255
         {
             return Err(MatcherConfigError::Window);
         }

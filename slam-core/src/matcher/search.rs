@@ -2,9 +2,10 @@
 //! lookups (through the footprint) and adds, headings from the prediction outwards and
 //! skipped when their bound cannot reach a weight in the surface.
 
+use super::divide::Divider;
 use super::footprint::{Footprint, FOOTPRINT};
 use super::sweep::{q16, SweepPoint};
-use super::{MatchStats, MatcherConfig};
+use super::{MatchStats, MatcherConfig, SWEEP_POINTS};
 use crate::angle::Angle;
 use crate::grid::GridMap;
 use crate::pose::Pose;
@@ -32,6 +33,11 @@ pub(super) fn search<const W: usize, const H: usize, const SIDE: usize, const TU
 ) -> Option<MatchStats> {
     let geometry = map.geometry();
     let cell = geometry.cell_mm;
+    let divider = Divider::new(cell)?;
+    // Each end's footprint at the heading in hand: worked out once for the bound and kept
+    // for the fine level (a few kilobytes of stack).
+    let mut feet = [Footprint::<SIDE>::EMPTY; SWEEP_POINTS];
+    let feet = feet.get_mut(..points.len())?;
     let half_side = (SIDE / 2) as i32;
     let half_turns = (TURNS / 2) as i32;
     // The prediction's place from the grid's corner, less half the window.
@@ -63,8 +69,10 @@ pub(super) fn search<const W: usize, const H: usize, const SIDE: usize, const TU
         };
         // Coarse: the bound over the window, from each end's footprint.
         let mut bound = 0i32;
-        for p in points {
-            let f = Footprint::<SIDE>::of(map, &config.scores, place(p), config.step_mm)?;
+        for (f, p) in feet.iter_mut().zip(points) {
+            if !f.fill(map, &config.scores, place(p), config.step_mm, &divider) {
+                return None;
+            }
             stats.lookups += f.lookups;
             bound += i32::from(f.max) * cell * cell;
         }
@@ -75,22 +83,18 @@ pub(super) fn search<const W: usize, const H: usize, const SIDE: usize, const TU
         }
         // Fine: every translation, interpolated along x in each row of the block, then
         // between rows along y. Scores come out in cells squared (`cell^2` per point of
-        // class score). The footprints are looked up again rather than kept (a sweep's
-        // worth would be a few kilobytes of stack).
+        // class score).
         *scores = [[0; SIDE]; SIDE];
-        for p in points {
-            let f = Footprint::<SIDE>::of(map, &config.scores, place(p), config.step_mm)?;
-            stats.lookups += f.lookups;
+        for f in feet.iter() {
+            // Only the block's rows the translations reach (the rest were not filled).
+            let rows = f.y.cell.last().map_or(0, |&r| usize::from(r) + 2);
             let mut along = [[0i32; SIDE]; FOOTPRINT];
-            for (out, row) in along.iter_mut().zip(f.scores.iter()) {
+            for (out, row) in along.iter_mut().zip(f.scores.iter()).take(rows) {
                 for ((o, &c), &past) in out.iter_mut().zip(f.x.cell.iter()).zip(f.x.past.iter()) {
                     let c = usize::from(c);
-                    let (lo, hi) = (row.get(c), row.get(c + 1));
-                    let (lo, hi) = (
-                        lo.map_or(0, |&v| i32::from(v)),
-                        hi.map_or(0, |&v| i32::from(v)),
-                    );
-                    *o = lo * (cell - i32::from(past)) + hi * i32::from(past);
+                    let lo = row.get(c).map_or(0, |&v| i32::from(v));
+                    let hi = row.get(c + 1).map_or(0, |&v| i32::from(v));
+                    *o = lo * cell + (hi - lo) * i32::from(past);
                 }
             }
             for ((row, &r), &past) in scores.iter_mut().zip(f.y.cell.iter()).zip(f.y.past.iter()) {
@@ -98,15 +102,18 @@ pub(super) fn search<const W: usize, const H: usize, const SIDE: usize, const TU
                 let (Some(lo), Some(hi)) = (along.get(r), along.get(r + 1)) else {
                     continue;
                 };
-                let (w_lo, w_hi) = (cell - i32::from(past), i32::from(past));
+                let past = i32::from(past);
                 for ((s, &a), &b) in row.iter_mut().zip(lo.iter()).zip(hi.iter()) {
-                    *s += a * w_lo + b * w_hi;
+                    *s += a * cell + (b - a) * past;
                 }
             }
             stats.adds += (SIDE * SIDE) as u32;
         }
-        let heading_best = scores.iter().flatten().copied().max().unwrap_or(PRUNED);
-        best = best.max(heading_best);
+        for row in scores.iter() {
+            for &s in row.iter() {
+                best = best.max(s);
+            }
+        }
         stats.headings_searched += 1;
     }
     Some(stats)

@@ -10,7 +10,9 @@
 //! (`(R^2 + R) / 3` steps squared for `2R + 1` steps) is one the surface does not pin:
 //! along a flat wall, along a corridor, every heading when the ends fall on nothing known.
 
+use super::divide::Divider;
 use super::search::{Surface, PRUNED};
+use crate::estimator::fixed::wide_mul;
 use crate::angle::Angle;
 use crate::pose::isqrt;
 
@@ -52,61 +54,67 @@ pub(super) struct Moments {
 }
 
 /// The moments of `surface`'s weights; `None` if nothing was scored.
+///
+/// Plain index loops and 32-bit products where they fit: this runs over every candidate
+/// of every match, and on the M0+ nested iterators copy their rows and a 64-bit multiply
+/// is a library call.
 pub(super) fn moments<const SIDE: usize, const TURNS: usize>(
     surface: &Surface<SIDE, TURNS>,
     halving: i32,
 ) -> Option<Moments> {
-    let scored = || {
-        surface
-            .iter()
-            .flatten()
-            .flatten()
-            .copied()
-            .filter(|&s| s != PRUNED)
-    };
-    let best = scored().max()?;
-    let worst = scored().min()?;
-    let halving = halving.max(1);
-    let weight = |s: i32| {
+    let (mut best, mut worst) = (PRUNED, i32::MAX);
+    for plane in surface.iter() {
+        for row in plane.iter() {
+            for &s in row.iter().filter(|&&s| s != PRUNED) {
+                best = best.max(s);
+                worst = worst.min(s);
+            }
+        }
+    }
+    if best == PRUNED {
+        return None;
+    }
+    let halving = Divider::new(halving.max(1))?;
+    let weight = |s: i32| -> i32 {
         if s == PRUNED {
             return 0;
         }
-        let index = (best - s).saturating_mul(PER_HALVING) / halving;
+        let (index, _) = halving.div_rem((best - s).saturating_mul(PER_HALVING));
         usize::try_from(index)
             .ok()
             .and_then(|i| WEIGHT.get(i))
-            .map_or(0, |&w| i64::from(w))
+            .map_or(0, |&w| i32::from(w))
     };
-    let (half_side, half_turns) = ((SIDE / 2) as i64, (TURNS / 2) as i64);
-    // Each candidate with its offsets from the middle, in steps.
-    let candidates = || {
-        surface.iter().enumerate().flat_map(move |(k, plane)| {
-            plane.iter().enumerate().flat_map(move |(j, row)| {
-                row.iter().enumerate().map(move |(i, &s)| {
-                    (
-                        [
-                            i as i64 - half_side,
-                            j as i64 - half_side,
-                            k as i64 - half_turns,
-                        ],
-                        s,
-                    )
-                })
-            })
-        })
+    let (half_side, half_turns) = ((SIDE / 2) as i32, (TURNS / 2) as i32);
+    // Each candidate's weight, and its offsets from the middle in steps, `[x, y, heading]`.
+    let mut weights = [[[0u16; SIDE]; SIDE]; TURNS];
+    let offset = |k: usize, j: usize, i: usize| {
+        [
+            i as i32 - half_side,
+            j as i32 - half_side,
+            k as i32 - half_turns,
+        ]
     };
     let (mut total, mut sum) = (0i64, [0i64; 3]);
-    let mut peak = [0i64; 3];
-    let mut peak_distance = i64::MAX;
-    for (offset, s) in candidates() {
-        let distance = offset.iter().map(|o| o * o).sum::<i64>();
-        if s == best && distance < peak_distance {
-            (peak, peak_distance) = (offset, distance);
-        }
-        let w = weight(s);
-        total += w;
-        for (acc, o) in sum.iter_mut().zip(offset) {
-            *acc += w * o;
+    let mut peak = [0i32; 3];
+    let mut peak_distance = i32::MAX;
+    for (k, (plane, w_plane)) in surface.iter().zip(weights.iter_mut()).enumerate() {
+        for (j, (row, w_row)) in plane.iter().zip(w_plane.iter_mut()).enumerate() {
+            for (i, (&s, w_out)) in row.iter().zip(w_row.iter_mut()).enumerate() {
+                let o = offset(k, j, i);
+                if s == best {
+                    let distance = o[0] * o[0] + o[1] * o[1] + o[2] * o[2];
+                    if distance < peak_distance {
+                        (peak, peak_distance) = (o, distance);
+                    }
+                }
+                let w = weight(s);
+                *w_out = w as u16;
+                total += i64::from(w);
+                for (acc, o) in sum.iter_mut().zip(o) {
+                    *acc += i64::from(w * o);
+                }
+            }
         }
     }
     if total == 0 {
@@ -114,15 +122,21 @@ pub(super) fn moments<const SIDE: usize, const TURNS: usize>(
     }
     let mean_q8 = sum.map(|s| round_div(s << 8, total) as i32);
     let mut second = [[0i64; 3]; 3];
-    for (offset, s) in candidates() {
-        let w = weight(s);
-        if w == 0 {
-            continue;
-        }
-        let d: [i64; 3] = core::array::from_fn(|a| (offset[a] << 8) - i64::from(mean_q8[a]));
-        for (row, &da) in second.iter_mut().zip(d.iter()) {
-            for (acc, &db) in row.iter_mut().zip(d.iter()) {
-                *acc += w * da * db;
+    for (k, w_plane) in weights.iter().enumerate() {
+        for (j, w_row) in w_plane.iter().enumerate() {
+            for (i, &w) in w_row.iter().enumerate() {
+                if w == 0 {
+                    continue;
+                }
+                let o = offset(k, j, i);
+                let d: [i32; 3] = core::array::from_fn(|a| (o[a] << 8) - mean_q8[a]);
+                for (row, &da) in second.iter_mut().zip(d.iter()) {
+                    // |w da| < 2^12 * 2^17: the window is at most 255 steps a side.
+                    let wd = i32::from(w) * da;
+                    for (acc, &db) in row.iter_mut().zip(d.iter()) {
+                        *acc += wide_mul(wd, db);
+                    }
+                }
             }
         }
     }
@@ -137,7 +151,7 @@ pub(super) fn moments<const SIDE: usize, const TURNS: usize>(
     Some(Moments {
         best,
         worst,
-        peak,
+        peak: peak.map(i64::from),
         mean_q8,
         covariance_q16,
     })
@@ -221,20 +235,20 @@ pub(super) fn rising<const SIDE: usize, const TURNS: usize>(
 /// The least-squares slope over the translations of each one's best score over the
 /// headings, `[x, y]` (unnormalised): which way the position's fit improves.
 fn slope<const SIDE: usize, const TURNS: usize>(surface: &Surface<SIDE, TURNS>) -> [i64; 2] {
+    let mut top = [[PRUNED; SIDE]; SIDE];
+    for plane in surface.iter() {
+        for (top_row, row) in top.iter_mut().zip(plane.iter()) {
+            for (t, &s) in top_row.iter_mut().zip(row.iter()) {
+                *t = (*t).max(s);
+            }
+        }
+    }
     let half = (SIDE / 2) as i64;
     let mut slope = [0i64; 2];
-    for j in 0..SIDE {
-        for i in 0..SIDE {
-            let top = surface
-                .iter()
-                .filter_map(|plane| plane.get(j).and_then(|row| row.get(i)))
-                .copied()
-                .filter(|&s| s != PRUNED)
-                .max();
-            if let Some(top) = top {
-                slope[0] += (i as i64 - half) * i64::from(top);
-                slope[1] += (j as i64 - half) * i64::from(top);
-            }
+    for (j, row) in top.iter().enumerate() {
+        for (i, &t) in row.iter().enumerate().filter(|&(_, &t)| t != PRUNED) {
+            slope[0] += (i as i64 - half) * i64::from(t);
+            slope[1] += (j as i64 - half) * i64::from(t);
         }
     }
     slope

@@ -75,18 +75,22 @@ pub struct Hello {
     /// is followed by a [`FilterState`].
     #[serde(with = "LocaliserDef")]
     pub localiser: Localiser,
+    /// Whether the filter also matches the depth scans against the map (`host-sim run
+    /// --pose slam`), or takes tags alone (`--pose filter`).
+    pub matching: bool,
     /// How this run started: the robot says in every `Hello` that it restarted, and why.
     pub boot: Boot,
 }
 
 impl Hello {
-    /// The `Hello` describing `map`, corrected by `localiser`, from a run that started as
-    /// `boot` says. Dimensions past `u16::MAX` saturate (no such grid fits in an RP2040's
+    /// The `Hello` describing `map`, corrected by `localiser` (with scan matching if
+    /// `matching`), from a run that started as `boot` says. Dimensions past `u16::MAX` saturate (no such grid fits in an RP2040's
     /// 264 KB anyway).
     pub fn new<const W: usize, const H: usize>(
         map: &GridMap<W, H>,
         firmware: FirmwareVersion,
         localiser: Localiser,
+        matching: bool,
         boot: Boot,
     ) -> Hello {
         let g = map.geometry();
@@ -101,6 +105,7 @@ impl Hello {
             occupied_above: scale.occupied_above,
             firmware,
             localiser,
+            matching,
             boot,
         }
     }

@@ -17,7 +17,7 @@
 //! COBS( VERSION | postcard(Message) | CRC16_LE ) | 0x00
 //! ```
 //!
-//! - `VERSION` is one byte, [`WIRE_VERSION`] (`0xB7`: BugBot telemetry, layout 7). A
+//! - `VERSION` is one byte, [`WIRE_VERSION`] (`0xB8`: BugBot telemetry, layout 8). A
 //!   receiver drops frames with any other value.
 //! - `postcard(Message)` is the [postcard 1.x] encoding of [`Message`]: integers `u16`,
 //!   `u32`, `i32` are LEB128 varints (signed ones zigzag-mapped first), `u8` and `i8` are
@@ -93,15 +93,16 @@ pub use message::{
 };
 pub use stream::{encode, EncodeError, Schedule, Streamer};
 
-/// The first byte of every frame: `0xB7`, BugBot telemetry layout 7.
+/// The first byte of every frame: `0xB8`, BugBot telemetry layout 8.
 ///
 /// Bumped whenever the layout changes, so an old viewer drops new frames instead of
 /// misreading them. Layout 2 added the start-up failure counts to `Health`; layout 3 the
 /// `TooOld` fix rejection and its counter to `Tick`; layout 4 the `Hello`'s localiser and
 /// the `Filter` message; layout 5 the `Inputs` message; layout 6 the doubted inputs and
 /// their counters to `Tick`, and the `Hello`'s boot (reset cause, resumed or not); layout
-/// 7 the commanded motion to `Inputs` (and doubt code 6 to `Tick`).
-pub const WIRE_VERSION: u8 = 0xB7;
+/// 7 the commanded motion to `Inputs` (and doubt code 6 to `Tick`); layout 8 whether the
+/// `Hello`'s filter matches scans against the map.
+pub const WIRE_VERSION: u8 = 0xB8;
 
 /// Most cells one [`MapRows`] carries: two rows of the seed's 46-cell grid fit, and the
 /// frame stays under 150 bytes (1.6 ms at 921,600 baud).

@@ -49,6 +49,7 @@ pub struct Streamer {
     schedule: Schedule,
     firmware: FirmwareVersion,
     localiser: Localiser,
+    matching: bool,
     boot: Boot,
     ticks_sent: u32,
     next_column: u16,
@@ -67,6 +68,7 @@ impl Streamer {
             schedule,
             firmware,
             localiser,
+            matching: false,
             boot: Boot {
                 cause: super::ResetCause::PowerOn,
                 resumed: false,
@@ -76,6 +78,12 @@ impl Streamer {
             next_column: 0,
             next_row: 0,
         }
+    }
+
+    /// The same stream from a robot whose filter also matches its scans against the map.
+    pub const fn with_matching(mut self, matching: bool) -> Streamer {
+        self.matching = matching;
+        self
     }
 
     /// The same stream from a run that started as `boot` says (a fresh start after
@@ -109,6 +117,7 @@ impl Streamer {
                 map,
                 self.firmware,
                 self.localiser,
+                self.matching,
                 self.boot,
             )));
         }

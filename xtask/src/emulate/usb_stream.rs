@@ -365,6 +365,7 @@ mod tests {
             occupied_above: 1,
             firmware: Default::default(),
             localiser: slam_core::Localiser::Filter,
+            matching: false,
             boot: Default::default(),
         })
     }
