@@ -169,7 +169,7 @@ fn the_state_after_a_recorded_run_is_its_map_paths_and_figures() {
     assert_eq!(s["truth"].as_array().map(Vec::len), Some(ticks));
     assert_eq!(s["tags"].as_array().map(Vec::len), Some(2));
     assert!(f["error_cm"].as_f64().is_some_and(|e| e < 1.0), "{f}");
-    assert_eq!(f["localiser"], "filter");
+    assert_eq!(f["localiser"], "slam");
     assert!(
         f["filter"]["belief"]["tags"]["used"].as_u64() > Some(100),
         "{f}"

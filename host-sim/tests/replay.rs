@@ -22,7 +22,7 @@ fn seed() -> Scenario {
 
 /// The stream `host-sim run --pose MODE --telemetry` writes on the seed.
 fn recorded(scenario: &Scenario, mode: PoseMode) -> Vec<u8> {
-    let mut writer = TelemetryWriter::new(mode.localiser());
+    let mut writer = TelemetryWriter::new(mode);
     if let Err(e) = run_with_telemetry(scenario, mode, scenario.seed, Some(&mut writer)) {
         panic!("run: {e}");
     }
