@@ -8,9 +8,9 @@ use crate::estimator::{
 use crate::frame::{DepthScan, FlowDelta, GyroRate, SensorFrame, BEAMS};
 use crate::grid::{BeamWriter, Evidence, GridGeometry, GridMap};
 use crate::history::PoseHistory;
-use crate::matcher::{Match, MatcherConfig, SeedMatcher};
+use crate::matcher::{Match, Matcher, MatcherConfig};
 #[cfg(feature = "matching")]
-use crate::matcher::{Sweep, SWEEP_TICKS};
+use crate::matcher::{MatchRefusal, Sweep, SWEEP_TICKS};
 use crate::odometry::{self, OdometryConfig};
 use crate::plausible::{Judged, Known, Plausibility, PlausibleConfig, Trust};
 use crate::pose::{mul_q16, Pose, RigidMotion};
@@ -169,8 +169,7 @@ impl SlamConfig {
             if self.localiser != Localiser::Filter || !cfg!(feature = "matching") {
                 return Err(ConfigError::Matching);
             }
-            SeedMatcher::new(m.matcher, self.geometry.cell_mm)
-                .map_err(|_| ConfigError::Matching)?;
+            Matcher::new(m.matcher, self.geometry.cell_mm).map_err(|_| ConfigError::Matching)?;
         }
         Ok(())
     }
@@ -292,7 +291,16 @@ pub struct Slam<const W: usize, const H: usize> {
     #[cfg(feature = "matching")]
     sweep: Sweep<SWEEP_TICKS>,
     #[cfg(feature = "matching")]
-    matcher: SeedMatcher,
+    matcher: Matcher,
+    /// Whether the step leaves the match to [`Slam::search_match`].
+    #[cfg(feature = "matching")]
+    defer_matching: bool,
+    /// Whether the last step's sweep is still to be matched.
+    #[cfg(feature = "matching")]
+    match_due: bool,
+    /// The match searched and not yet applied.
+    #[cfg(feature = "matching")]
+    matched: Option<Result<Match, MatchRefusal>>,
     match_counters: MatchCounters,
     last_match: Option<Match>,
     /// How far the map may be off, for the matches against it.
@@ -320,11 +328,17 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             #[cfg(feature = "matching")]
             sweep: Sweep::new(),
             #[cfg(feature = "matching")]
-            matcher: SeedMatcher::new(
+            matcher: Matcher::new(
                 config.matching.map_or(MatcherConfig::SEED, |m| m.matcher),
                 config.geometry.cell_mm,
             )
             .map_err(|_| ConfigError::Matching)?,
+            #[cfg(feature = "matching")]
+            defer_matching: false,
+            #[cfg(feature = "matching")]
+            match_due: false,
+            #[cfg(feature = "matching")]
+            matched: None,
             match_counters: MatchCounters::default(),
             last_match: None,
             map_uncertainty: MapUncertainty::default(),
@@ -417,6 +431,9 @@ impl<const W: usize, const H: usize> Slam<W, H> {
     /// is gated against the pose believed then (from the last ticks' poses) and carried
     /// to now by the motion believed since. At age 0 that is the fix itself, bit for bit.
     pub fn step(&mut self, frame: &SensorFrame) -> StepReport {
+        // A match left in progress is finished before anything moves.
+        #[cfg(feature = "matching")]
+        self.complete_match();
         self.counters.ticks = self.counters.ticks.wrapping_add(1);
         let mut stale = Staleness {
             flow: frame.flow.is_none(),
@@ -616,7 +633,8 @@ impl<const W: usize, const H: usize> Slam<W, H> {
     #[cfg(feature = "matching")]
     /// With matching on: the scan joins the sweep, the scan leaving the sweep goes into
     /// the map (so the map never holds a beam the sweep matches against it), and the
-    /// sweep is matched. Returns the cells written.
+    /// sweep is matched, now or, deferred, by [`Slam::search_match`] and
+    /// [`Slam::finish_match`]. Returns the cells written.
     fn sweep_scan(&mut self, scan: &DepthScan, then: &Pose) -> u32 {
         let written = match self.sweep.push(self.counters.ticks, *then, *scan) {
             Some(left) => {
@@ -625,28 +643,94 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             }
             None => 0,
         };
-        if let Some(matching) = self.config.matching {
-            self.match_sweep(&matching);
+        if self.config.matching.is_some() {
+            self.match_due = true;
+            if !self.defer_matching {
+                self.complete_match();
+            }
         }
         written
     }
 
+    /// Leaves each step's match to the caller ([`Slam::search_match`], then
+    /// [`Slam::finish_match`]), so that it can yield to other work between pieces; the
+    /// result is the same, bit for bit, as a step that matches itself.
     #[cfg(feature = "matching")]
-    /// Matches the sweep against the map and applies the match through the pose history.
-    /// Its own function, never inlined, so that the firmware's bench can tell a match's
-    /// cycles from the rest of the step's.
-    #[inline(never)]
-    fn match_sweep(&mut self, matching: &MatchingConfig) {
-        let outcome = self
+    pub fn defer_matching(&mut self, defer: bool) {
+        self.defer_matching = defer;
+    }
+
+    /// Does up to `pieces` more pieces of the match the last step started: its start,
+    /// each piece of its search ([`Matcher::search`]), then the surface's moments. `true`
+    /// when nothing is left but to apply it ([`Slam::finish_match`]).
+    #[cfg(feature = "matching")]
+    pub fn search_match(&mut self, pieces: usize) -> bool {
+        for _ in 0..pieces {
+            if core::mem::take(&mut self.match_due) {
+                self.start_match();
+                continue;
+            }
+            if self.matched.is_some() || !self.matcher.in_progress() {
+                return true;
+            }
+            if self.matcher.searched() {
+                self.matched = Some(self.matcher.finish());
+                continue;
+            }
+            let view = self.map.view();
+            if let Err(why) = self.matcher.search(&view, 1) {
+                self.estimator.settle();
+                self.match_counters.count(Err(why));
+                return true;
+            }
+        }
+        !self.match_due && (self.matched.is_some() || !self.matcher.in_progress())
+    }
+
+    /// Finishes the match the last step started, if any (searching what is left), and
+    /// returns `report` with the pose and the filter's belief after it.
+    #[cfg(feature = "matching")]
+    pub fn finish_match(&mut self, report: StepReport) -> StepReport {
+        if !self.match_due && !self.matcher.in_progress() && self.matched.is_none() {
+            return report;
+        }
+        self.complete_match();
+        StepReport {
+            pose: self.pose,
+            estimate: self.filter().map(Estimator::estimate),
+            ..report
+        }
+    }
+
+    #[cfg(feature = "matching")]
+    /// Starts matching the sweep; a sweep refused at once is counted.
+    fn start_match(&mut self) {
+        if let Err(why) = self
             .matcher
-            .match_sweep(&self.sweep, &self.config.depth.beam_angles, &self.map)
-            .and_then(|m| {
-                self.last_match = Some(m);
-                let corrected =
-                    self.estimator
-                        .apply_match(&m, &matching.noise, &self.map_uncertainty)?;
-                Ok(RigidMotion::carrying(&m.prediction, &corrected))
-            });
+            .start(&self.sweep, &self.config.depth.beam_angles)
+        {
+            self.estimator.settle();
+            self.match_counters.count(Err(why));
+        }
+    }
+
+    #[cfg(feature = "matching")]
+    /// Searches what is left of the match in progress, if any, and applies it through the
+    /// pose history.
+    fn complete_match(&mut self) {
+        if !self.search_match(usize::MAX) {
+            return;
+        }
+        let (Some(matching), Some(matched)) = (self.config.matching, self.matched.take()) else {
+            return;
+        };
+        let outcome = matched.and_then(|m| {
+            self.last_match = Some(m);
+            let corrected =
+                self.estimator
+                    .apply_match(&m, &matching.noise, &self.map_uncertainty)?;
+            Ok(RigidMotion::carrying(&m.prediction, &corrected))
+        });
         if let Ok(motion) = &outcome {
             self.history.carry(motion);
             self.sweep.carry(motion);

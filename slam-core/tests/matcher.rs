@@ -4,7 +4,7 @@
 
 use slam_core::grid::{Evidence, GridGeometry, GridMap};
 use slam_core::matcher::{
-    MatchRefusal, MatcherConfig, Pins, SeedMatcher, Sweep, SWEEP_POINTS, SWEEP_TICKS,
+    MatchRefusal, Matcher, MatcherConfig, Pins, Sweep, SWEEP_POINTS, SWEEP_TICKS,
 };
 use slam_core::pose::RigidMotion;
 use slam_core::slam::DepthConfig;
@@ -142,8 +142,8 @@ fn sweep(truth: &Path, scans: &[DepthScan], offset: (f64, f64, f64)) -> Sweep<SW
     sweep
 }
 
-fn matcher() -> SeedMatcher {
-    SeedMatcher::new(MatcherConfig::SEED, CELL).expect("the seed's window fits")
+fn matcher() -> Matcher {
+    Matcher::new(MatcherConfig::SEED, CELL).expect("the seed's window fits")
 }
 
 fn degrees(a: Angle) -> f64 {
@@ -174,7 +174,7 @@ fn a_corner_recovers_a_known_offset() {
             .match_sweep(
                 &sweep(&truth, &scans, offset),
                 &DepthConfig::SEED.beam_angles,
-                &map,
+                &map.view(),
             )
             .expect("a corner matches");
         let ex = m.pose.x_um as f64 / 1000.0 - last.0;
@@ -216,7 +216,7 @@ fn a_flat_wall_pins_its_distance_but_not_along_it() {
         .match_sweep(
             &sweep(&truth, &scans, (15.0, -20.0, 1.0)),
             &DepthConfig::SEED.beam_angles,
-            &map,
+            &map.view(),
         )
         .expect("a wall pins something");
     let ey = m.pose.y_um as f64 / 1000.0 - last.1;
@@ -260,7 +260,7 @@ fn a_corridor_pins_across_but_not_along() {
         .match_sweep(
             &sweep(&truth, &scans, (-18.0, 25.0, -1.2)),
             &DepthConfig::SEED.beam_angles,
-            &map,
+            &map.view(),
         )
         .expect("a corridor pins something");
     let ex = m.pose.x_um as f64 / 1000.0 - last.0;
@@ -307,7 +307,7 @@ fn a_sweep_past_the_mapped_walls_pins_nothing_along_them() {
         .match_sweep(
             &sweep(&truth, &scans, (-15.0, 0.0, 0.0)),
             &DepthConfig::SEED.beam_angles,
-            &wide_corridor(true).map(),
+            &wide_corridor(true).map().view(),
         )
         .expect("the walls beside pin their distance");
     let ey = m.pose.y_um as f64 / 1000.0 - last.1;
@@ -332,7 +332,7 @@ fn an_empty_sweep_is_refused() {
     let mut m = matcher();
     let mut sweep: Sweep<SWEEP_TICKS> = Sweep::new();
     assert_eq!(
-        m.match_sweep(&sweep, &beams, &map),
+        m.match_sweep(&sweep, &beams, &map.view()),
         Err(MatchRefusal::EmptySweep)
     );
     // Every beam missing: scans, but no ends.
@@ -344,7 +344,7 @@ fn an_empty_sweep_is_refused() {
         );
     }
     assert_eq!(
-        m.match_sweep(&sweep, &beams, &map),
+        m.match_sweep(&sweep, &beams, &map.view()),
         Err(MatchRefusal::EmptySweep)
     );
     // One beam a tick: too few to trust.
@@ -353,7 +353,7 @@ fn an_empty_sweep_is_refused() {
     };
     sweep.push(99, Pose::from_mm_mdeg(1000, 1000, 0), one);
     assert_eq!(
-        m.match_sweep(&sweep, &beams, &map),
+        m.match_sweep(&sweep, &beams, &map.view()),
         Err(MatchRefusal::TooFewPoints)
     );
 }
@@ -368,7 +368,7 @@ fn ends_on_nothing_known_are_refused() {
     let r = matcher().match_sweep(
         &sweep(&truth, &scans, (-18.0, 0.0, -1.2)),
         &DepthConfig::SEED.beam_angles,
-        &map,
+        &map.view(),
     );
     assert_eq!(r, Err(MatchRefusal::NoFit));
 }
@@ -402,13 +402,13 @@ fn a_mirrored_world_gives_a_mirrored_match() {
     let beams = DepthConfig::SEED.beam_angles;
     for offset in [(25.0, -20.0, 1.5), (-12.0, 7.0, -0.7)] {
         let here = matcher()
-            .match_sweep(&sweep(&truth, &scans_here, offset), &beams, &map)
+            .match_sweep(&sweep(&truth, &scans_here, offset), &beams, &map.view())
             .expect("matches");
         let there = matcher()
             .match_sweep(
                 &sweep(&truth_there, &scans_there, (-offset.0, offset.1, -offset.2)),
                 &beams,
-                &mirrored,
+                &mirrored.view(),
             )
             .expect("matches");
         println!("here {:?}\nthere {:?}", here, there);
@@ -447,7 +447,7 @@ fn a_match_costs_a_bounded_number_of_lookups() {
         .match_sweep(
             &sweep(&truth, &scans, (10.0, 10.0, 1.0)),
             &DepthConfig::SEED.beam_angles,
-            &map,
+            &map.view(),
         )
         .expect("matches");
     let s = m.stats;
@@ -459,7 +459,7 @@ fn a_match_costs_a_bounded_number_of_lookups() {
     // interpolation's neighbours), and again for each heading searched; 49 adds per end
     // and heading searched.
     assert!(s.points as usize <= SWEEP_POINTS);
-    let headings = SeedMatcher::HEADINGS as u32;
+    let headings = Matcher::HEADINGS as u32;
     assert!(s.lookups <= s.points * 16 * (headings + s.headings_searched));
     assert_eq!(s.adds, s.points * 49 * s.headings_searched);
     assert_eq!(s.headings_searched + s.headings_pruned, headings);

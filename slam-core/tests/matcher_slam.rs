@@ -8,7 +8,7 @@ use reference::RefPose;
 use slam_core::matcher::SWEEP_TICKS;
 use slam_core::{
     ConfigError, DepthScan, FlowDelta, GyroRate, Localiser, MatchingConfig, Pose, SensorFrame,
-    Slam, SlamConfig, BEAMS,
+    Slam, SlamConfig, StepReport, BEAMS,
 };
 
 const DT_US: u32 = 100_000;
@@ -48,8 +48,20 @@ fn route() -> Vec<(i32, i32)> {
 /// Drives the route with the flow sensor reading 4 % short and the gyro 1 % high; returns
 /// the largest position error on the way, in millimetres, and the core.
 fn drive(localiser: Localiser, matching: bool) -> (f64, Slam<46, 46>) {
+    drive_matching(localiser, matching, None).0
+}
+
+/// [`drive`], and each tick's report; with `pieces`, each match deferred and searched
+/// that many pieces at a time before it is finished.
+fn drive_matching(
+    localiser: Localiser,
+    matching: bool,
+    pieces: Option<usize>,
+) -> ((f64, Slam<46, 46>), Vec<StepReport>) {
     let start = Pose::from_mm_mdeg(500, 500, 0);
     let mut slam: Slam<46, 46> = Slam::new(config(localiser, matching), start).unwrap();
+    slam.defer_matching(pieces.is_some());
+    let mut reports = Vec::new();
     let mut truth = RefPose {
         x_um: 500_000.0,
         y_um: 500_000.0,
@@ -68,11 +80,30 @@ fn drive(localiser: Localiser, matching: bool) -> (f64, Slam<46, 46>) {
             rate_mdps: rate * 101 / 100,
         });
         frame.depth = Some(DepthScan { ranges_mm });
-        let p = slam.step(&frame).pose;
+        let mut report = slam.step(&frame);
+        if let Some(pieces) = pieces {
+            while !slam.search_match(pieces) {}
+            report = slam.finish_match(report);
+        }
+        reports.push(report);
+        let p = report.pose;
         let error = (p.x_um as f64 - truth.x_um).hypot(p.y_um as f64 - truth.y_um) / 1000.0;
         worst = worst.max(error);
     }
-    (worst, slam)
+    ((worst, slam), reports)
+}
+
+#[test]
+fn a_match_searched_in_pieces_is_the_steps_own_bit_for_bit() {
+    let ((_, whole), whole_reports) = drive_matching(Localiser::Filter, true, None);
+    for at_a_time in [1, 2, 5] {
+        let ((_, pieces), piece_reports) = drive_matching(Localiser::Filter, true, Some(at_a_time));
+        assert_eq!(piece_reports, whole_reports, "{at_a_time} pieces at a time");
+        assert_eq!(pieces.map().rows(), whole.map().rows());
+        assert_eq!(pieces.match_counters(), whole.match_counters());
+        assert_eq!(pieces.last_match(), whole.last_match());
+    }
+    assert!(whole.match_counters().used > 300);
 }
 
 #[test]

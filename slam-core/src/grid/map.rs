@@ -1,6 +1,7 @@
 //! The grid: its cells' log odds, where it lies, and what it believes about each cell.
 
 use super::divider::CellDivider;
+use super::view::GridView;
 
 /// Log odds in Q4 fixed point, one byte a cell: 16 is a log-odds of 1.0.
 ///
@@ -45,6 +46,20 @@ impl Evidence {
         free_below: 17,
         occupied_above: 17,
     };
+}
+
+impl Evidence {
+    /// What a cell whose log odds are `l` is believed to be.
+    #[inline]
+    pub fn classify(&self, l: LogOdds) -> Occupancy {
+        if l < -self.free_below {
+            Occupancy::Free
+        } else if l > self.occupied_above {
+            Occupancy::Occupied
+        } else {
+            Occupancy::Unknown
+        }
+    }
 }
 
 impl Default for Evidence {
@@ -217,18 +232,18 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
     #[inline]
     pub fn occupancy(&self, column: i32, row: i32) -> Occupancy {
         self.log_odds(column, row)
-            .map_or(Occupancy::Unknown, |l| self.classify(l))
+            .map_or(Occupancy::Unknown, |l| self.evidence.classify(l))
     }
 
-    #[inline]
-    fn classify(&self, l: LogOdds) -> Occupancy {
-        if l < -self.evidence.free_below {
-            Occupancy::Free
-        } else if l > self.evidence.occupied_above {
-            Occupancy::Occupied
-        } else {
-            Occupancy::Unknown
-        }
+    /// The cells in use through a slice, the grid's size erased ([`GridView`]).
+    pub fn view(&self) -> GridView<'_> {
+        GridView::new(
+            self.cells.as_flattened(),
+            W,
+            (self.columns, self.rows),
+            self.evidence,
+            self.geometry,
+        )
     }
 
     /// Every row of raw log odds, lowest y first: for telemetry and pictures. Cells beyond
@@ -243,7 +258,7 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
         let (columns, rows) = self.extent();
         for row in self.cells.iter().take(rows) {
             for &l in row.iter().take(columns) {
-                match self.classify(l) {
+                match self.evidence.classify(l) {
                     Occupancy::Free => counts.free += 1,
                     Occupancy::Occupied => counts.occupied += 1,
                     Occupancy::Unknown => counts.unknown += 1,

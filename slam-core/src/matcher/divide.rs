@@ -58,7 +58,18 @@ mod tests {
             let Some(d) = Divider::new(cell) else {
                 panic!("cell {cell} refused");
             };
-            let edges = [0, 1, cell - 1, cell, cell + 1, i32::MAX, i32::MAX - 1, -1, -cell, i32::MIN];
+            let edges = [
+                0,
+                1,
+                cell - 1,
+                cell,
+                cell + 1,
+                i32::MAX,
+                i32::MAX - 1,
+                -1,
+                -cell,
+                i32::MIN,
+            ];
             let spread = (-20_000..20_000).step_by(7);
             for u in edges.into_iter().chain(spread) {
                 assert_eq!(

@@ -15,8 +15,8 @@
 //! and the surface a plateau that pins nothing finer than the cell.
 
 use super::divide::Divider;
-use super::score::EndpointScores;
-use crate::grid::GridMap;
+use super::score::ScoreTable;
+use crate::grid::GridView;
 
 /// Most cells a window may span along each axis, the interpolation's neighbour included.
 pub const FOOTPRINT: usize = 4;
@@ -40,6 +40,9 @@ pub(super) struct Footprint<const SIDE: usize> {
     pub y: Steps<SIDE>,
     /// The largest score in the block: what any translation can give this end.
     pub max: i16,
+    /// Whether any cell of the block scores: an end among unknown cells adds nothing at
+    /// any translation, and is skipped.
+    pub scores_any: bool,
     /// Cells looked up.
     pub lookups: u32,
 }
@@ -57,6 +60,7 @@ impl<const SIDE: usize> Footprint<SIDE> {
             past: [0; SIDE],
         },
         max: 0,
+        scores_any: false,
         lookups: 0,
     };
 
@@ -66,10 +70,10 @@ impl<const SIDE: usize> Footprint<SIDE> {
     /// [`FOOTPRINT`] cells. Filled in place: a footprint returned by value is copied
     /// byte by byte on the M0+, several times over.
     #[inline]
-    pub fn fill<const W: usize, const H: usize>(
+    pub fn fill(
         &mut self,
-        map: &GridMap<W, H>,
-        scores: &EndpointScores,
+        map: &GridView,
+        scores: &ScoreTable,
         low: (i32, i32),
         step_mm: i32,
         divider: &Divider,
@@ -85,14 +89,21 @@ impl<const SIDE: usize> Footprint<SIDE> {
             return false;
         };
         let mut max = i16::MIN;
+        let mut any = false;
         for (r, row) in self.scores.iter_mut().enumerate().take(rows) {
+            let cells = map.row(first_row + r as i32);
             for (c, slot) in row.iter_mut().enumerate().take(columns) {
-                let s = scores.of(map, first_column + c as i32, first_row + r as i32);
+                let s = usize::try_from(first_column + c as i32)
+                    .ok()
+                    .and_then(|i| cells.get(i))
+                    .map_or(scores.unknown, |&l| scores.of(l));
                 *slot = s;
                 max = max.max(s);
+                any |= s != 0;
             }
         }
         self.max = max;
+        self.scores_any = any;
         self.lookups = (rows * columns) as u32;
         true
     }

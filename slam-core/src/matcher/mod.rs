@@ -21,9 +21,15 @@
 //! (`footprint`) and spread over the translations.
 //!
 //! **The window.** Ten ticks (one second) of scans make one sweep ([`SWEEP_TICKS`]): see
-//! there. The search is `SIDE` steps along x and y and `TURNS` headings, sizes by const
-//! generics; [`SeedMatcher`] is 7 x 7 x 17 (+-3 cm in 1 cm steps, +-4 degrees in
-//! half-degree steps).
+//! there. The search is [`SIDE`] steps along x and y and [`TURNS`] headings: 7 x 7 x 17
+//! (+-3 cm in 1 cm steps, +-4 degrees in half-degree steps).
+//!
+//! **In pieces.** A match takes milliseconds on the M0+, which must not hold up the tasks
+//! that read the sensors: [`Matcher::start`], then [`Matcher::search`] a few headings at a
+//! time (the caller may yield between), then [`Matcher::finish`]. The map must not change
+//! in between. [`Matcher::match_sweep`] does all three at once. None of it is generic over
+//! the grid's size (the map is read through a [`GridView`]), so it is compiled in this
+//! crate at this crate's optimisation.
 //!
 //! **The map's edge.** The map lags the sweep, so a sweep's newest ends run past the walls
 //! mapped so far: along a wall driven beside, round a turn on the spot. Pulling them back
@@ -50,22 +56,33 @@ mod sweep;
 
 pub use footprint::FOOTPRINT;
 pub use score::EndpointScores;
+
+use footprint::Footprint;
+use score::ScoreTable;
+pub use search::ENDS_A_PIECE;
 pub use sweep::{Sweep, SweepPoint, SweepScan, SWEEP_TICKS};
 
 use crate::angle::Angle;
 use crate::frame::BEAMS;
-use crate::grid::GridMap;
+use crate::grid::GridView;
 use crate::pose::Pose;
 use search::Surface;
 
 /// Most beam ends a sweep of [`SWEEP_TICKS`] ticks holds.
 pub const SWEEP_POINTS: usize = SWEEP_TICKS * BEAMS;
 
-/// The seed's matcher: 7 x 7 translations (+-3 cm) at 17 headings (+-4 degrees): a spin
-/// on the spot that comes back to walls mapped a turn before finds them turned by the
-/// gyro's scale error (up to 3.6 degrees a turn at 1 %), inside the window rather than on
-/// its edge.
-pub type SeedMatcher = Matcher<7, 17>;
+/// Translations searched along each axis: +-3 cm in the seed's 1 cm steps.
+pub const SIDE: usize = 7;
+
+/// Headings searched: +-4 degrees in the seed's half-degree steps. A spin on the spot that
+/// comes back to walls mapped a turn before finds them turned by the gyro's scale error
+/// (up to 3.6 degrees a turn at 1 %), inside the window rather than on its edge.
+pub const TURNS: usize = 17;
+
+// Odd (the prediction in the middle), at least 3, and small enough for the footprint's
+// byte indices and the moments' 32-bit products.
+const _: () = assert!(SIDE >= 3 && SIDE % 2 == 1 && SIDE <= 255);
+const _: () = assert!(TURNS >= 3 && TURNS % 2 == 1 && TURNS <= 255);
 
 /// The search's steps, scores and thresholds.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -117,9 +134,6 @@ impl Default for MatcherConfig {
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum MatcherConfigError {
-    /// `SIDE` and `TURNS` must be odd (the prediction in the middle), at least 3 and at
-    /// most 255.
-    Window,
     /// Steps must be positive, and the translation window no wider than
     /// [`FOOTPRINT`] - 2 cells.
     Step,
@@ -252,26 +266,34 @@ pub struct Match {
     pub stats: MatchStats,
 }
 
-/// A correlative matcher over `SIDE` x `SIDE` translations and `TURNS` headings, with its
-/// score surface as scratch (no allocation; `4 * SIDE^2 * TURNS` bytes).
+/// A match in progress: the sweep's ends and what the search has found so far.
 #[derive(Clone, Debug)]
-pub struct Matcher<const SIDE: usize, const TURNS: usize> {
-    config: MatcherConfig,
-    surface: Surface<SIDE, TURNS>,
+struct Work {
+    points: [SweepPoint; SWEEP_POINTS],
+    count: usize,
+    /// The tick of the sweep's newest scan, and the pose believed then.
+    tick: u32,
+    prediction: Pose,
+    progress: search::Progress,
+    /// What an end scores in each cell of the map, once the search has seen the map.
+    table: Option<ScoreTable>,
+    /// Each end's footprint at the heading in hand.
+    feet: [Footprint<SIDE>; SWEEP_POINTS],
 }
 
-impl<const SIDE: usize, const TURNS: usize> Matcher<SIDE, TURNS> {
-    /// A matcher, once its window and configuration are checked against `cell_mm`.
+/// A correlative matcher over [`SIDE`] x [`SIDE`] translations and [`TURNS`] headings,
+/// with its score surface as scratch (no allocation; `4 * SIDE^2 * TURNS` bytes).
+#[derive(Clone, Debug)]
+pub struct Matcher {
+    config: MatcherConfig,
+    cell_mm: i32,
+    surface: Surface<SIDE, TURNS>,
+    work: Option<Work>,
+}
+
+impl Matcher {
+    /// A matcher, once its configuration is checked against `cell_mm`.
     pub fn new(config: MatcherConfig, cell_mm: i32) -> Result<Self, MatcherConfigError> {
-        if SIDE < 3
-            || TURNS < 3
-            || SIDE.is_multiple_of(2)
-            || TURNS.is_multiple_of(2)
-            || SIDE > 255
-            || TURNS > 255
-        {
-            return Err(MatcherConfigError::Window);
-        }
         let span = (SIDE as i32 - 1).saturating_mul(config.step_mm);
         if config.step_mm < 1
             || config.step_mdeg < 1
@@ -285,7 +307,9 @@ impl<const SIDE: usize, const TURNS: usize> Matcher<SIDE, TURNS> {
         }
         Ok(Matcher {
             config,
+            cell_mm,
             surface: [[[0; SIDE]; SIDE]; TURNS],
+            work: None,
         })
     }
 
@@ -298,44 +322,153 @@ impl<const SIDE: usize, const TURNS: usize> Matcher<SIDE, TURNS> {
     }
 
     /// Matches `sweep` against `map` around its newest scan's pose, taken as the
-    /// prediction.
-    pub fn match_sweep<const N: usize, const W: usize, const H: usize>(
+    /// prediction: [`Matcher::start`], [`Matcher::search`] and [`Matcher::finish`] at once.
+    pub fn match_sweep(
         &mut self,
-        sweep: &Sweep<N>,
+        sweep: &Sweep<SWEEP_TICKS>,
         beam_angles: &[Angle; BEAMS],
-        map: &GridMap<W, H>,
+        map: &GridView,
     ) -> Result<Match, MatchRefusal> {
+        self.start(sweep, beam_angles)?;
+        self.search(map, usize::MAX)?;
+        self.finish()
+    }
+
+    /// Matches beam ends given relative to `prediction` (the pose at `tick`) against
+    /// `map`, all at once.
+    pub fn match_points(
+        &mut self,
+        points: &[SweepPoint],
+        prediction: &Pose,
+        tick: u32,
+        map: &GridView,
+    ) -> Result<Match, MatchRefusal> {
+        self.start_points(points, prediction, tick)?;
+        self.search(map, usize::MAX)?;
+        self.finish()
+    }
+
+    /// Starts matching `sweep`, around its newest scan's pose; forgets any match in
+    /// progress. Refuses a sweep with no end, or too few.
+    #[inline(never)]
+    pub fn start(
+        &mut self,
+        sweep: &Sweep<SWEEP_TICKS>,
+        beam_angles: &[Angle; BEAMS],
+    ) -> Result<(), MatchRefusal> {
+        self.work = None;
         let Some(newest) = sweep.newest() else {
             return Err(MatchRefusal::EmptySweep);
         };
         let (tick, prediction) = (newest.tick, newest.pose);
         let mut points = [SweepPoint::default(); SWEEP_POINTS];
         let n = sweep.points(beam_angles, self.config.max_range_mm, &mut points);
-        self.match_points(points.get(..n).unwrap_or(&[]), &prediction, tick, map)
+        self.begin(points, n, prediction, tick)
     }
 
-    /// Matches beam ends given relative to `prediction` (the pose at `tick`) against
-    /// `map`.
-    pub fn match_points<const W: usize, const H: usize>(
+    /// Starts matching beam ends given relative to `prediction`, the pose at `tick`.
+    fn start_points(
         &mut self,
         points: &[SweepPoint],
         prediction: &Pose,
         tick: u32,
-        map: &GridMap<W, H>,
-    ) -> Result<Match, MatchRefusal> {
-        if points.is_empty() {
+    ) -> Result<(), MatchRefusal> {
+        self.work = None;
+        let mut kept = [SweepPoint::default(); SWEEP_POINTS];
+        let mut n = 0;
+        for (slot, p) in kept.iter_mut().zip(points) {
+            *slot = *p;
+            n += 1;
+        }
+        self.begin(kept, n, *prediction, tick)
+    }
+
+    fn begin(
+        &mut self,
+        points: [SweepPoint; SWEEP_POINTS],
+        count: usize,
+        prediction: Pose,
+        tick: u32,
+    ) -> Result<(), MatchRefusal> {
+        if count == 0 {
             return Err(MatchRefusal::EmptySweep);
         }
-        if points.len() < usize::from(self.config.min_points) {
+        if count < usize::from(self.config.min_points) {
             return Err(MatchRefusal::TooFewPoints);
+        }
+        self.work = Some(Work {
+            points,
+            count,
+            tick,
+            prediction,
+            progress: search::Progress::new(count),
+            table: None,
+            feet: [Footprint::EMPTY; SWEEP_POINTS],
+        });
+        Ok(())
+    }
+
+    /// Whether the match in progress has every heading searched.
+    pub fn searched(&self) -> bool {
+        self.work
+            .as_ref()
+            .is_some_and(|w| w.progress.headings >= TURNS)
+    }
+
+    /// Whether a match is started and not yet finished.
+    pub fn in_progress(&self) -> bool {
+        self.work.is_some()
+    }
+
+    /// Does up to `pieces` more pieces of the match in progress against `map`, which
+    /// must be the map it started against and unchanged since: a heading's bound, or its
+    /// translations for [`ENDS_A_PIECE`] beam ends. `Ok(true)` once every heading is
+    /// searched (or none is in progress).
+    #[inline(never)]
+    pub fn search(&mut self, map: &GridView, pieces: usize) -> Result<bool, MatchRefusal> {
+        let Some(work) = self.work.as_mut() else {
+            return Ok(true);
+        };
+        let cell = map.geometry().cell_mm;
+        let table = work
+            .table
+            .get_or_insert_with(|| ScoreTable::new(&self.config.scores, map.evidence()));
+        let count = work.count.min(SWEEP_POINTS);
+        let mut search = search::Search {
+            map,
+            table,
+            points: work.points.get(..count).unwrap_or(&[]),
+            feet: work.feet.get_mut(..count).unwrap_or(&mut []),
+            prediction: &work.prediction,
+            config: &self.config,
+            cutoff: surface::cutoff(self.config.halving.saturating_mul(cell * cell)),
+        };
+        for _ in 0..pieces {
+            match search.piece(&mut self.surface, &mut work.progress) {
+                Some(false) => {}
+                Some(true) => return Ok(true),
+                None => {
+                    self.work = None;
+                    return Err(MatchRefusal::Window);
+                }
+            }
+        }
+        Ok(work.progress.headings >= TURNS)
+    }
+
+    /// The match, from the surface the search filled; ends the match in progress.
+    #[inline(never)]
+    pub fn finish(&mut self) -> Result<Match, MatchRefusal> {
+        let Some(work) = self.work.take() else {
+            return Err(MatchRefusal::EmptySweep);
+        };
+        if work.progress.headings < TURNS {
+            return Err(MatchRefusal::Window);
         }
         let c = &self.config;
         // The surface is in class score times cells squared (the interpolation's weights).
-        let cell = map.geometry().cell_mm;
+        let cell = self.cell_mm;
         let halving = c.halving.saturating_mul(cell * cell);
-        let cutoff = surface::cutoff(halving);
-        let stats = search::search(map, points, prediction, c, cutoff, &mut self.surface)
-            .ok_or(MatchRefusal::Window)?;
         let m = surface::moments(&self.surface, halving).ok_or(MatchRefusal::NoFit)?;
         if m.best <= 0 {
             return Err(MatchRefusal::NoFit);
@@ -353,6 +486,7 @@ impl<const SIDE: usize, const TURNS: usize> Matcher<SIDE, TURNS> {
             pins
         };
 
+        let prediction = work.prediction;
         let (step_um, step_mdeg) = (i64::from(c.step_mm) * 1000, i64::from(c.step_mdeg));
         let q8 = |v: i32, unit: i64| (i64::from(v) * unit + 128) >> 8;
         let dx = q8(m.mean_q8[0], step_um);
@@ -374,15 +508,15 @@ impl<const SIDE: usize, const TURNS: usize> Matcher<SIDE, TURNS> {
             hh_mdeg2: q16(q[2][2], step_mdeg, step_mdeg),
         };
         Ok(Match {
-            tick,
-            prediction: *prediction,
+            tick: work.tick,
+            prediction,
             pose,
             covariance,
             pins,
             wide,
             best_score: m.best,
             worst_score: m.worst,
-            stats,
+            stats: work.progress.stats,
         })
     }
 

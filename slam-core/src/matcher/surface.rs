@@ -12,7 +12,6 @@
 
 use super::divide::Divider;
 use super::search::{Surface, PRUNED};
-use crate::estimator::fixed::wide_mul;
 use crate::angle::Angle;
 use crate::pose::isqrt;
 
@@ -74,34 +73,40 @@ pub(super) fn moments<const SIDE: usize, const TURNS: usize>(
     if best == PRUNED {
         return None;
     }
-    let halving = Divider::new(halving.max(1))?;
+    let halving = halving.max(1);
+    let divider = Divider::new(halving)?;
+    // A drop this far below the best, times `PER_HALVING`, is past the table: weight 0.
+    let past_table = (WEIGHT.len() as i32).saturating_mul(halving);
     let weight = |s: i32| -> i32 {
         if s == PRUNED {
             return 0;
         }
-        let (index, _) = halving.div_rem((best - s).saturating_mul(PER_HALVING));
+        let drop = (best - s).saturating_mul(PER_HALVING);
+        if drop >= past_table {
+            return 0;
+        }
+        let (index, _) = divider.div_rem(drop);
         usize::try_from(index)
             .ok()
             .and_then(|i| WEIGHT.get(i))
             .map_or(0, |&w| i32::from(w))
     };
     let (half_side, half_turns) = ((SIDE / 2) as i32, (TURNS / 2) as i32);
-    // Each candidate's weight, and its offsets from the middle in steps, `[x, y, heading]`.
-    let mut weights = [[[0u16; SIDE]; SIDE]; TURNS];
-    let offset = |k: usize, j: usize, i: usize| {
-        [
-            i as i32 - half_side,
-            j as i32 - half_side,
-            k as i32 - half_turns,
-        ]
-    };
+    // One pass: the weights' sum, first moments and second moments about the middle, each
+    // candidate's offsets from the middle in steps, `[x, y, heading]`. A product of a
+    // weight (below 2^13) and two offsets (below 2^8) fits 32 bits.
     let (mut total, mut sum) = (0i64, [0i64; 3]);
+    let mut about_middle = [[0i64; 3]; 3];
     let mut peak = [0i32; 3];
     let mut peak_distance = i32::MAX;
-    for (k, (plane, w_plane)) in surface.iter().zip(weights.iter_mut()).enumerate() {
-        for (j, (row, w_row)) in plane.iter().zip(w_plane.iter_mut()).enumerate() {
-            for (i, (&s, w_out)) in row.iter().zip(w_row.iter_mut()).enumerate() {
-                let o = offset(k, j, i);
+    for (k, plane) in surface.iter().enumerate() {
+        for (j, row) in plane.iter().enumerate() {
+            for (i, &s) in row.iter().enumerate() {
+                let o = [
+                    i as i32 - half_side,
+                    j as i32 - half_side,
+                    k as i32 - half_turns,
+                ];
                 if s == best {
                     let distance = o[0] * o[0] + o[1] * o[1] + o[2] * o[2];
                     if distance < peak_distance {
@@ -109,10 +114,16 @@ pub(super) fn moments<const SIDE: usize, const TURNS: usize>(
                     }
                 }
                 let w = weight(s);
-                *w_out = w as u16;
+                if w == 0 {
+                    continue;
+                }
                 total += i64::from(w);
-                for (acc, o) in sum.iter_mut().zip(o) {
-                    *acc += i64::from(w * o);
+                for ((acc, row), &oa) in sum.iter_mut().zip(about_middle.iter_mut()).zip(&o) {
+                    let wo = w * oa;
+                    *acc += i64::from(wo);
+                    for (m, &ob) in row.iter_mut().zip(&o) {
+                        *m += i64::from(wo * ob);
+                    }
                 }
             }
         }
@@ -121,25 +132,14 @@ pub(super) fn moments<const SIDE: usize, const TURNS: usize>(
         return None;
     }
     let mean_q8 = sum.map(|s| round_div(s << 8, total) as i32);
-    let mut second = [[0i64; 3]; 3];
-    for (k, w_plane) in weights.iter().enumerate() {
-        for (j, w_row) in w_plane.iter().enumerate() {
-            for (i, &w) in w_row.iter().enumerate() {
-                if w == 0 {
-                    continue;
-                }
-                let o = offset(k, j, i);
-                let d: [i32; 3] = core::array::from_fn(|a| (o[a] << 8) - mean_q8[a]);
-                for (row, &da) in second.iter_mut().zip(d.iter()) {
-                    // |w da| < 2^12 * 2^17: the window is at most 255 steps a side.
-                    let wd = i32::from(w) * da;
-                    for (acc, &db) in row.iter_mut().zip(d.iter()) {
-                        *acc += wide_mul(wd, db);
-                    }
-                }
-            }
-        }
-    }
+    // About the mean, in 1/256 steps: sum w (256 o_a - m_a)(256 o_b - m_b), expanded, in
+    // integers and so exactly.
+    let second: [[i64; 3]; 3] = core::array::from_fn(|a| {
+        core::array::from_fn(|b| {
+            let (ma, mb) = (i64::from(mean_q8[a]), i64::from(mean_q8[b]));
+            (about_middle[a][b] << 16) - ((mb * sum[a] + ma * sum[b]) << 8) + ma * mb * total
+        })
+    });
     let mut covariance_q16 = second.map(|row| row.map(|v| round_div(v, total)));
     // A surface sampled a step apart cannot say more than a step: each axis keeps at least
     // the variance of rounding to it, a twelfth of a step squared.
