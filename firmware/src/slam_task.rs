@@ -90,6 +90,12 @@ pub const TELEMETRY_SCHEDULE: Schedule = Schedule {
     inputs: cfg!(feature = "record-inputs"),
 };
 
+/// Pieces of a scan match searched before the loop yields to the other tasks
+/// ([`slam_core::matcher::Matcher::search`]): one is a fraction of a millisecond on the
+/// M0+, well inside the flow task's read timeout.
+#[cfg(feature = "matching")]
+const MATCH_PIECES_PER_TURN: usize = 1;
+
 /// Frames queued for the link: one tick's worth (at most seven) with room to spare.
 pub const TELEMETRY_QUEUE: usize = 10;
 
@@ -149,8 +155,11 @@ pub struct LoopCounters {
     pub overruns: u32,
     /// Worst start lateness since boot, in microseconds.
     pub max_late_us: u32,
-    /// Worst time spent in `step`, in microseconds.
+    /// Worst time spent in `step` and the guard, in microseconds.
     pub max_step_us: u32,
+    /// Worst time from the end of `step` to the end of its scan match, in microseconds,
+    /// the other tasks' turns in between included (`matching` feature).
+    pub max_match_us: u32,
     /// Worst time spent framing the tick's telemetry, in microseconds.
     pub max_telemetry_us: u32,
     /// Worst time spent closing the retained state after the step, in microseconds.
@@ -228,6 +237,10 @@ pub async fn slam_task(
         Some(_) => 0,
     };
     let mut trust = slam_core::Trust::default();
+    // The step leaves its scan match to this loop, which searches it a few headings at a
+    // time and lets the sensors' tasks run in between.
+    #[cfg(feature = "matching")]
+    saved.slam().defer_matching(true);
 
     loop {
         ticker.next().await;
@@ -280,6 +293,21 @@ pub async fn slam_task(
         saved.open_tick();
         let slam = saved.slam();
         let report = slam.step(&frame);
+        let stepped = Instant::now();
+        #[cfg(feature = "matching")]
+        let report = {
+            loop {
+                // Every turn ends in a yield, the last one's before the finish.
+                let searched = saved.slam().search_match(MATCH_PIECES_PER_TURN);
+                embassy_futures::yield_now().await;
+                if searched {
+                    break;
+                }
+            }
+            saved.slam().finish_match(report)
+        };
+        let matched = Instant::now();
+        let slam = saved.slam();
         trust = report.trust;
         if trust != trusted_before {
             // Four bits an input, gyro lowest: 0 trusted, else `slam_core::Doubt::code`.
@@ -298,7 +326,7 @@ pub async fn slam_task(
             &report.trust,
             command,
         );
-        let stepped = Instant::now();
+        let decided = Instant::now();
         let time_ms = u32::try_from(started.as_millis())
             .unwrap_or(u32::MAX)
             .saturating_add(run_offset_ms);
@@ -306,10 +334,16 @@ pub async fn slam_task(
         let slam = saved.slam();
         health.max_step_us = health
             .max_step_us
-            .max(micros(stepped.saturating_duration_since(started)));
+            .max(micros(
+                stepped.saturating_duration_since(started)
+                    + decided.saturating_duration_since(matched),
+            ));
+        health.max_match_us = health
+            .max_match_us
+            .max(micros(matched.saturating_duration_since(stepped)));
         health.max_save_us = health
             .max_save_us
-            .max(micros(Instant::now().saturating_duration_since(stepped)));
+            .max(micros(Instant::now().saturating_duration_since(decided)));
         health.ticks = health.ticks.wrapping_add(1);
 
         watchdog.feed(WATCHDOG_TIMEOUT);

@@ -42,6 +42,7 @@ import { runBothCores, WATCHDOG_RESET } from './scheduler.mjs';
 import { round } from './result.mjs';
 import { retainedState } from './retained.mjs';
 import { StepMeter, findStep, findFilterCode } from './step.mjs';
+import { MatchMeter, findMatcher } from './match.mjs';
 import { UsbHost, selfTests as usbTests } from './usb-host.mjs';
 import { openWorld } from './world.mjs';
 import { CameraLink, selfTests as cameraTests } from './devices/camera.mjs';
@@ -141,7 +142,12 @@ function main() {
   const profilers = profilersFromEnv(elf, process.env);
   const filter = step.method === 'none' ? null : findFilterCode(args.elf);
   if (filter) say(`filter measurement: ${filter.method}, ${filter.filterRows} rows in the filter's files`);
-  const meter = new StepMeter(step, { onStart: recordTruth, onAbandon: dropTruth, profile: profilers.stepProfile, filter });
+  const matchMeter = new MatchMeter(findMatcher(elf));
+  const onStart = () => {
+    matchMeter.stepStarted();
+    recordTruth();
+  };
+  const meter = new StepMeter(step, { onStart, onAbandon: dropTruth, profile: profilers.stepProfile, filter });
   const hardFault = elf.symbols.find((s) => s.name === 'HardFault');
   // A hang fault stops core 0 once: asleep between ticks, or inside a step.
   const hang = faults.any(HANG_KINDS)
@@ -159,6 +165,7 @@ function main() {
         chip,
         endNs: args.seconds * 1e9,
         meter,
+        matchMeter,
         rtt,
         pcSamples: profilers.pcSamples,
         hardFaultPc: hardFault ? hardFault.value & ~1 : -1,
@@ -196,7 +203,7 @@ function main() {
   if (defmtFd !== null) fs.closeSync(defmtFd);
 
   const result = buildResult({
-    args, chip: lastChip, run, meter, rtt, world, motors, truth, devices, faults, resets,
+    args, chip: lastChip, run, meter, matchMeter, rtt, world, motors, truth, devices, faults, resets,
     telemetryBytes: telemetry.length,
     usb: usbHost ? usbHost.summary() : 'unplugged (--no-usb)',
     profile: profileResult(profilers, meter.cycles.length),

@@ -1,6 +1,7 @@
 // Where the cycles go, for a firmware that is slow or spins. Off unless asked for:
 // BUGBOT_EMU_STEP_PROFILE=1 gives the step's cycles by function (`=pc`: by instruction),
-// BUGBOT_EMU_PC_SAMPLES=1 samples core 0's PC across the whole run.
+// BUGBOT_EMU_PC_SAMPLES=1 samples core 0's PC across the whole run (=N: the N most
+// sampled PCs rather than 12).
 
 /// The profilers the environment asks for: `{ stepProfile, pcSamples }`, each null when
 /// not asked for.
@@ -8,7 +9,7 @@ export function profilersFromEnv(elf, env) {
   const byPc = env.BUGBOT_EMU_STEP_PROFILE === 'pc';
   return {
     stepProfile: env.BUGBOT_EMU_STEP_PROFILE ? functionProfiler(elf, byPc) : null,
-    pcSamples: env.BUGBOT_EMU_PC_SAMPLES ? new PcSamples() : null,
+    pcSamples: env.BUGBOT_EMU_PC_SAMPLES ? new PcSamples(Math.max(12, Number(env.BUGBOT_EMU_PC_SAMPLES) || 0)) : null,
   };
 }
 
@@ -19,7 +20,7 @@ export function profileResult({ stepProfile, pcSamples }, steps) {
     out.step_profile_worst = stepProfile.worst(stepProfile.byPc ? 4000 : 15);
     out.step_profile = stepProfile.top(stepProfile.byPc ? 2000 : 15, steps);
   }
-  if (pcSamples) out.pc_samples = pcSamples.top(12);
+  if (pcSamples) out.pc_samples = pcSamples.top(pcSamples.shown);
   return out;
 }
 
@@ -77,7 +78,8 @@ function functionProfiler(elf, byPc) {
 
 /// Core 0's PC, sampled every 1024th instruction.
 class PcSamples {
-  constructor() { this.counts = new Map(); }
+  /// `shown`: how many of the most sampled PCs the result lists.
+  constructor(shown) { this.counts = new Map(); this.shown = shown; }
   /// `instr`: instructions executed so far.
   sample(instr, pc) {
     if ((instr & 0x3ff) === 0) this.counts.set(pc, (this.counts.get(pc) || 0) + 1);

@@ -16,7 +16,7 @@ const loadPct = (cycles, seconds) => round((100 * cycles) / (seconds * NOMINAL_C
 /// baseline outputs were written with.
 /// `run` holds the figures of every boot summed (instructions and cycles of both cores);
 /// `chip` and `devices` are the last boot's; `resets` lists the watchdog resets.
-export function buildResult({ args, chip, run, meter, rtt, telemetryBytes, usb, world, motors, truth, devices, faults, resets, profile }) {
+export function buildResult({ args, chip, run, meter, matchMeter, rtt, telemetryBytes, usb, world, motors, truth, devices, faults, resets, profile }) {
   const { rp, core, core1, clock, messages } = chip;
   const simS = clock.nanos / 1e9;
   const { flow, imu, imuBus, depth, depthBus, camera } = devices;
@@ -30,6 +30,7 @@ export function buildResult({ args, chip, run, meter, rtt, telemetryBytes, usb, 
     cpu_load_pct: loadPct(run.cycles, simS),
     clk_sys_hz: rp.clkSys,
     ...meter.summary(),
+    ...matchMeter.summary(),
     defmt_bytes: rtt.bytes.length,
     telemetry_bytes: telemetryBytes,
     world: args.noWorld ? 'still (no host-sim)' : 'host-sim serve',

@@ -6,12 +6,12 @@
 /// Runs `chip` (from `bootChip`) until `endNs` of simulated time, a HardFault or
 /// breakpoint, a watchdog reset (stop reason `WATCHDOG_RESET`: the caller boots the chip
 /// again), both cores asleep with nothing pending, or `maxWallS` seconds of wall time
-/// (0: no limit). `meter` measures the step on core 0, `rtt` is drained as the run goes,
+/// (0: no limit). `meter` measures the step on core 0, `matchMeter` the scan matches, `rtt` is drained as the run goes,
 /// `pcSamples` (or null) samples core 0's PC. `hang` (or null) is asked before each of
 /// core 0's instructions: `hang(asleep, inStep)` true stops core 0 for good (a hung core:
 /// no instruction, no interrupt; its peripherals and core 1 run on). Returns
 /// `{ stopReason, instructions, core1Instructions, wallS, hungAtNs }`.
-export function runBothCores({ chip, endNs, meter, rtt, pcSamples, hardFaultPc, maxWallS, hang = null }) {
+export function runBothCores({ chip, endNs, meter, matchMeter, rtt, pcSamples, hardFaultPc, maxWallS, hang = null }) {
   const { clock, rp, core: c0, core1 } = chip;
   // Core 0 as the loop sees it: hung, it sleeps and never wakes.
   let hungAtNs = null;
@@ -33,6 +33,7 @@ export function runBothCores({ chip, endNs, meter, rtt, pcSamples, hardFaultPc, 
     if (hang && hungAtNs === null && hang(c0.waiting, meter.open)) {
       hungAtNs = clock.nanos;
       meter.abandon();
+      matchMeter.abandon();
     }
     if (core.waiting) {
       meter.close();
@@ -56,11 +57,13 @@ export function runBothCores({ chip, endNs, meter, rtt, pcSamples, hardFaultPc, 
     if (t0 < clock.nanos) t0 = clock.nanos;
     const pc = c0.PC;
     const inside = meter.before(pc, c0);
+    matchMeter.before(pc, c0);
     if (pc === hardFaultPc) { stopReason = 'HardFault'; break; }
     if (pcSamples) pcSamples.sample(instr, pc);
     const before = c0.cycles;
     const c = c0.executeInstruction();
     if (meter.open) meter.after(pc, c0, before, inside);
+    matchMeter.after(c0, before);
     t0 += c * cycleNs;
     const until = c1Awake() ? Math.min(t0, t1) : t0;
     if (until > clock.nanos) clock.tick(until - clock.nanos);
@@ -73,8 +76,10 @@ export function runBothCores({ chip, endNs, meter, rtt, pcSamples, hardFaultPc, 
       }
     }
   }
-  if (stopReason === WATCHDOG_RESET) meter.abandon();
-  else meter.close();
+  if (stopReason === WATCHDOG_RESET) {
+    meter.abandon();
+    matchMeter.abandon();
+  } else meter.close();
   rtt.drain();
   return {
     stopReason: stopReason || (asleepWithNothing ? 'core asleep with no alarm pending' : 'time'),

@@ -142,8 +142,10 @@ fn test() -> Result<(), String> {
         stage::timed("emulator-fault-matrix", emulate::fault_matrix::ci_run)?;
     let (route_passed, route_failed) = stage::timed("emulator-route", emulate::checks::route_run)?;
     let (reset_passed, reset_failed) = stage::timed("emulator-reset", emulate::checks::reset_run)?;
-    // Last, as it leaves the firmware built for the room rather than the seed mat.
+    // Last, as they leave the firmware built for another world, or with the matcher.
     let (room_passed, room_failed) = stage::timed("emulator-room", emulate::checks::room_run)?;
+    let (matching_passed, matching_failed) =
+        stage::timed("emulator-matching", emulate::checks::matching_run)?;
     let passed = cargo_passed
         + browser_passed
         + self_passed
@@ -151,7 +153,8 @@ fn test() -> Result<(), String> {
         + matrix_passed
         + route_passed
         + reset_passed
-        + room_passed;
+        + room_passed
+        + matching_passed;
     let failed = cargo_failed
         + browser_failed
         + self_failed
@@ -159,7 +162,8 @@ fn test() -> Result<(), String> {
         + matrix_failed
         + route_failed
         + reset_failed
-        + room_failed;
+        + room_failed
+        + matching_failed;
     println!("tests: {passed} passed, {failed} failed");
     if failed > 0 {
         return Err(format!("{failed} tests failed"));
@@ -291,6 +295,48 @@ fn bench(args: &BenchArgs) -> Result<(), String> {
         println!("  note: no depth beam was mapped in this run (the depth sensor did not start),");
         println!("  so these cycles are the pose update and tag fix alone");
     }
+    bench_matching()
+}
+
+/// The scan matcher's figures: the firmware built with `matching` over the seed route on
+/// the mat without tags.
+fn bench_matching() -> Result<(), String> {
+    let world = emulate::checks::MATCHING_WORLD;
+    let figures = emulator_figures(&[world, "--features", "matching", "--seconds", "52"])?;
+    let (e, v) = (&figures["emulator"], &figures["view"]);
+    let n = |key: &str| {
+        e[key]
+            .as_f64()
+            .map_or("?".to_string(), |v| format!("{v:.0}"))
+    };
+    println!(
+        "firmware with the scan matcher (`--features matching`, {world}, 52 simulated s, localiser {}):",
+        v["localiser"].as_str().unwrap_or("?")
+    );
+    println!(
+        "  M0+ cycles per match: median {} / p99 {} / max {} / mean {} over {} matches (target: <= 2500000); {} over",
+        n("match_cycles_median"),
+        n("match_cycles_p99"),
+        n("match_cycles_max"),
+        n("match_cycles_mean"),
+        n("matches"),
+        n("match_cycles_over_budget")
+    );
+    println!(
+        "  M0+ cycles per step, the match left out: median {} / max {} (target: worst step <= 40000)",
+        n("step_cycles_median"),
+        n("step_cycles_max")
+    );
+    println!(
+        "  core 0 load {} % (target: <= 25 % on average), overruns {}, final error {} cm",
+        e["cpu_load_pct"]
+            .as_f64()
+            .map_or("?".to_string(), |v| format!("{v:.1}")),
+        n("overruns"),
+        v["final_error_cm"]
+            .as_f64()
+            .map_or("?".to_string(), |v| format!("{v:.2}"))
+    );
     Ok(())
 }
 

@@ -73,6 +73,9 @@ pub struct EmulateArgs {
     /// "out_dir": ...}.
     #[arg(long)]
     pub json: bool,
+    /// Firmware features to build with (comma-separated), as `cargo xtask firmware -F`.
+    #[arg(long, short = 'F', value_name = "LIST")]
+    pub features: Vec<String>,
 }
 
 /// A positive number, kept as text for the harness's command line.
@@ -89,6 +92,7 @@ pub fn run(args: &EmulateArgs) -> Result<(), String> {
     // The firmware is built for the world it flies in.
     let firmware_args = FirmwareArgs {
         world: args.scenario.clone(),
+        features: args.features.clone(),
         ..FirmwareArgs::default()
     };
     let scenario = firmware_args.world_file();
@@ -107,7 +111,7 @@ pub fn run(args: &EmulateArgs) -> Result<(), String> {
     // With --json, stdout must hold one JSON object; `firmware::run` prints its size
     // table there, so it runs as `xtask firmware` in a child with stdout sent to stderr.
     let built = if args.json {
-        firmware_quietly(&scenario)
+        firmware_quietly(&scenario, &args.features)
     } else {
         firmware::run(&firmware_args)
     };
@@ -280,16 +284,14 @@ fn read_defmt_log(elf: &Path, log: &Path) -> Result<Vec<defmt_log::LogLine>, Str
 
 /// `cargo xtask firmware --world WORLD` (this very binary), its stdout redirected to
 /// stderr.
-fn firmware_quietly(world: &Path) -> Result<(), String> {
+fn firmware_quietly(world: &Path, features: &[String]) -> Result<(), String> {
     let exe = std::env::current_exe().map_err(|e| format!("cannot find xtask itself: {e}"))?;
-    run_in(
-        &workspace_root(),
-        Command::new(exe)
-            .arg("firmware")
-            .arg("--world")
-            .arg(world)
-            .stdout(Stdio::from(stderr_fd()?)),
-    )
+    let mut build = Command::new(exe);
+    build.arg("firmware").arg("--world").arg(world);
+    for list in features {
+        build.arg("--features").arg(list);
+    }
+    run_in(&workspace_root(), build.stdout(Stdio::from(stderr_fd()?)))
 }
 
 /// A copy of this process's stderr, to send a child's stdout there.
