@@ -173,12 +173,12 @@ mod tests {
         }
     }
 
-    /// The build with the sensor's driver, in the proportions of the real one: 150 KB of
-    /// flash of which 84 KB is the sensor's image.
+    /// The build with the sensor's driver, in the proportions of the real one with the
+    /// scan matcher: 220 KB of flash of which 84 KB is the sensor's image.
     fn with_sensor_image() -> Vec<Section> {
         vec![
-            section(".text", FLASH_BASE + 0x100, 60 * 1024, false),
-            section(".rodata", FLASH_BASE + 0x2_0000, 90 * 1024, false),
+            section(".text", FLASH_BASE + 0x100, 130 * 1024, false),
+            section(".rodata", FLASH_BASE + 0x4_0000, 90 * 1024, false),
             section(".data", RAM_BASE, 512, false),
             section(".bss", RAM_BASE + 512, 20 * 1024, true),
         ]
@@ -187,7 +187,7 @@ mod tests {
     #[test]
     fn usage_leaves_the_sensor_image_out_of_the_flash_budget() {
         let image = Symbol {
-            addr: FLASH_BASE + 0x2_0000 + 4096,
+            addr: FLASH_BASE + 0x4_0000 + 4096,
             size: 86_016,
         };
         let sections = with_sensor_image();
@@ -221,9 +221,9 @@ mod tests {
     #[test]
     fn usage_still_fails_when_the_rest_exceeds_the_budget() {
         let mut sections = with_sensor_image();
-        sections[0].size = 130 * 1024;
+        sections[0].size = 200 * 1024;
         let image = Symbol {
-            addr: FLASH_BASE + 0x2_0000,
+            addr: FLASH_BASE + 0x4_0000,
             size: 86_016,
         };
         let usage = Usage::from_sections(&sections, Some(image));

@@ -26,7 +26,7 @@
 //!
 //! # The budget leaves out the sensor's firmware image
 //!
-//! The flash budget (128 KB) is for *our* firmware. ST's driver carries the sensor's own
+//! The flash budget (192 KB) is for *our* firmware. ST's driver carries the sensor's own
 //! firmware, an 86,016-byte blob (`VL53L5CX_FIRMWARE`, in `.rodata`) that the driver uploads
 //! into the sensor at every boot. It is data we neither write nor can shrink, its size is
 //! fixed by ST, and counting it would leave the budget a third of its size for everything
