@@ -26,7 +26,7 @@ impl CellDivider {
     /// Offsets from `0` up to (not including) this take the multiply.
     const LIMIT: i64 = 1 << 15;
 
-    pub(super) const fn new(cell: i64) -> CellDivider {
+    pub(crate) const fn new(cell: i64) -> CellDivider {
         let cell = if cell < 1 { 1 } else { cell };
         if cell >= 1 << 16 {
             return CellDivider {
@@ -58,7 +58,7 @@ impl CellDivider {
 
     /// `floor(a / cell)` for `0 <= a < LIMIT` by the multiply; `None` otherwise.
     #[inline]
-    pub(super) fn fast_floor(&self, a: i32) -> Option<i32> {
+    pub(crate) fn fast_floor(&self, a: i32) -> Option<i32> {
         // One unsigned comparison takes in `0 <= a < LIMIT`.
         ((a as u32) < Self::LIMIT as u32 && self.multiplier != 0)
             .then(|| ((a as u32 * self.multiplier) >> self.shift) as i32)

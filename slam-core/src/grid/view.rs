@@ -54,6 +54,18 @@ impl<'a> GridView<'a> {
             .unwrap_or(&[])
     }
 
+    /// The log odds of `width` cells of row `row` from column `column`, lowest x first;
+    /// `None` unless all of them lie in the grid.
+    #[inline]
+    pub fn run(&self, column: i32, row: i32, width: usize) -> Option<&'a [LogOdds]> {
+        let column = u32::try_from(column).ok()?;
+        if (row as u32) >= self.rows || column.checked_add(width as u32)? > self.columns {
+            return None;
+        }
+        let start = row as usize * self.stride + column as usize;
+        self.cells.get(start..start + width)
+    }
+
     /// The evidence rules its cells follow.
     pub fn evidence(&self) -> &Evidence {
         &self.evidence

@@ -1,9 +1,11 @@
 //! Floor division by a number fixed for a whole search (a cell's side, a halving), without
 //! a divide: the M0+ has none, and the library's takes a hundred cycles or more, which the
-//! search would pay several times per beam end and heading. A multiply by the reciprocal
-//! gives the quotient or one less, and one compare puts it right.
+//! search would pay several times per beam end and heading. Small offsets take the grid's
+//! own shortcut (one multiply and a shift); larger ones a wide multiply by the reciprocal,
+//! which gives the quotient or one less, and one compare puts it right.
 
 use crate::estimator::fixed::wide_mul_unsigned;
+use crate::grid::CellDivider;
 
 /// Floor division by a divisor fixed for the whole search, without a divide.
 #[derive(Clone, Copy, Debug)]
@@ -11,6 +13,8 @@ pub(super) struct Divider {
     divisor: i32,
     /// `floor((2^32 - 1) / divisor)`.
     reciprocal: u32,
+    /// The grid's multiply and shift, for offsets below 2^15.
+    small: CellDivider,
 }
 
 impl Divider {
@@ -20,18 +24,17 @@ impl Divider {
         Some(Divider {
             divisor,
             reciprocal: u32::MAX / d,
+            small: CellDivider::new(i64::from(divisor)),
         })
-    }
-
-    /// The divisor.
-    pub fn divisor(&self) -> i32 {
-        self.divisor
     }
 
     /// `(floor(u / divisor), u mod divisor)`, the remainder in `0..divisor`: what
     /// `div_euclid` and `rem_euclid` give.
     #[inline]
     pub fn div_rem(&self, u: i32) -> (i32, i32) {
+        if let Some(q) = self.small.fast_floor(u) {
+            return (q, u - q * self.divisor);
+        }
         let Ok(t) = u32::try_from(u) else {
             return (u.div_euclid(self.divisor), u.rem_euclid(self.divisor));
         };

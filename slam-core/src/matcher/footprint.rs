@@ -1,14 +1,13 @@
-//! The coarse level of the search: for each beam end at one heading, the few cells that
-//! every translation of the window can draw its score from, looked up once, and their
-//! maximum.
+//! The coarse level of the search: for each beam end at one heading, the block of cells
+//! that every translation of the window can draw its score from, and their maximum.
 //!
 //! Cartographer prunes its search with grids max-pooled over growing blocks. Here the
 //! translation window (a few centimetres) is about one 5 cm cell wide, so every end's
-//! window falls in a block of at most `FOOTPRINT` x `FOOTPRINT` cells: those are looked up
-//! once per end and heading, their maximum bounds what any translation can score (the
-//! max-pool over the window), and the fine level spreads the same lookups over the
-//! translations instead of looking each one up again. A pooled copy of the whole grid would
-//! cost as much RAM as the grid (83 KB in a 10 m room) and be stale after every tick.
+//! window falls in a block of `FOOTPRINT` x `FOOTPRINT` cells: its maximum bounds what any
+//! translation can score (the max-pool over the window), and the fine level spreads the
+//! block's scores over the translations instead of looking each one up again. A pooled
+//! copy of the whole grid would cost as much RAM as the grid (83 KB in a 10 m room) and be
+//! stale after every tick.
 //!
 //! An end scores the bilinear interpolation of its four nearest cells' scores (as Hector's
 //! map access): with 5 cm cells and 1 cm steps, a nearest-cell score is flat over a cell
@@ -21,119 +20,125 @@ use crate::grid::GridView;
 /// Most cells a window may span along each axis, the interpolation's neighbour included.
 pub const FOOTPRINT: usize = 4;
 
-/// Where each translation step puts an end along one axis: the block cell below it and
-/// how far past that cell's centre, in millimetres (`0..cell`).
+/// The translation window as the footprints see it: the cell, the step and how far the
+/// window reaches from its lowest translation, all in millimetres.
 #[derive(Clone, Copy, Debug)]
-pub(super) struct Steps<const SIDE: usize> {
-    pub cell: [u8; SIDE],
-    pub past: [i16; SIDE],
+pub(super) struct Window {
+    /// Floor division by the cell.
+    pub divider: Divider,
+    /// The cell's side.
+    pub cell: i32,
+    /// One translation step.
+    pub step: i32,
+}
+
+impl Window {
+    /// The window of `side` steps of `step` millimetres on `cell` millimetre cells; `None`
+    /// if a step is longer than a cell or the window spans more than [`FOOTPRINT`] cells
+    /// with the interpolation's neighbour, wherever it starts in a cell.
+    pub fn new(side: usize, step: i32, cell: i32) -> Option<Window> {
+        let span = (side as i32 - 1).checked_mul(step)?;
+        if step < 1 || step > cell || span > (FOOTPRINT as i32 - 2) * cell {
+            return None;
+        }
+        Some(Window {
+            divider: Divider::new(cell)?,
+            cell,
+            step,
+        })
+    }
 }
 
 /// The cells one beam end can draw from over the translation window, with their scores.
+///
+/// The block is [`FOOTPRINT`] cells a side wherever the window starts in a cell, and kept
+/// from one heading to the next: half a degree moves an end a metre away by 9 mm, so the
+/// block usually starts at the same cell, and then is not looked up again.
 #[derive(Clone, Copy, Debug)]
-pub(super) struct Footprint<const SIDE: usize> {
+pub(super) struct Footprint {
     /// Score of each cell of the block, `[row][column]` from the block's lower-left.
-    pub scores: [[i16; FOOTPRINT]; FOOTPRINT],
-    /// For each translation step along x, where the end lands.
-    pub x: Steps<SIDE>,
-    /// For each translation step along y, where the end lands.
-    pub y: Steps<SIDE>,
+    /// Words, not halfwords: the M0+ loads a halfword only from a register offset.
+    pub scores: [[i32; FOOTPRINT]; FOOTPRINT],
+    /// The block's lower-left cell, `(column, row)`; `None` before the first fill.
+    corner: Option<(i32, i32)>,
+    /// How far past the block's first column's centre the window's lowest translation
+    /// puts the end, millimetres (`0..cell`).
+    pub within_x: i32,
+    /// The same along y, past the first row's centre.
+    pub within_y: i32,
     /// The largest score in the block: what any translation can give this end.
-    pub max: i16,
+    pub max: i32,
     /// Whether any cell of the block scores: an end among unknown cells adds nothing at
     /// any translation, and is skipped.
     pub scores_any: bool,
-    /// Cells looked up.
-    pub lookups: u32,
 }
 
-impl<const SIDE: usize> Footprint<SIDE> {
+impl Footprint {
     /// A footprint with nothing in it, to fill.
-    pub const EMPTY: Footprint<SIDE> = Footprint {
+    pub const EMPTY: Footprint = Footprint {
         scores: [[0; FOOTPRINT]; FOOTPRINT],
-        x: Steps {
-            cell: [0; SIDE],
-            past: [0; SIDE],
-        },
-        y: Steps {
-            cell: [0; SIDE],
-            past: [0; SIDE],
-        },
+        corner: None,
+        within_x: 0,
+        within_y: 0,
         max: 0,
         scores_any: false,
-        lookups: 0,
     };
 
-    /// Fills this with the block for an end at grid-relative `(x, y)` millimetres (from
-    /// the grid's corner) when the window's lowest translation is applied, stepping
-    /// `step_mm` `SIDE - 1` times along each axis. `false` if the window spans more than
-    /// [`FOOTPRINT`] cells. Filled in place: a footprint returned by value is copied
-    /// byte by byte on the M0+, several times over.
+    /// Places this for an end at grid-relative `(x, y)` millimetres (from the grid's
+    /// corner) when the window's lowest translation is applied, and looks the block up
+    /// if it starts at another cell than last time. Returns the cells looked up.
     #[inline]
     pub fn fill(
         &mut self,
         map: &GridView,
         scores: &ScoreTable,
         low: (i32, i32),
-        step_mm: i32,
-        divider: &Divider,
-    ) -> bool {
-        let cell = divider.divisor();
+        window: &Window,
+    ) -> u32 {
+        let half = window.cell / 2;
         // From the cells' centres: the cell whose centre is below and to the left.
-        let (first_column, within_x) = divider.div_rem(low.0 - cell / 2);
-        let (first_row, within_y) = divider.div_rem(low.1 - cell / 2);
-        let Some(columns) = steps(&mut self.x, within_x, step_mm, cell) else {
-            return false;
-        };
-        let Some(rows) = steps(&mut self.y, within_y, step_mm, cell) else {
-            return false;
-        };
-        let mut max = i16::MIN;
-        let mut any = false;
-        for (r, row) in self.scores.iter_mut().enumerate().take(rows) {
-            let cells = map.row(first_row + r as i32);
-            for (c, slot) in row.iter_mut().enumerate().take(columns) {
-                let s = usize::try_from(first_column + c as i32)
-                    .ok()
-                    .and_then(|i| cells.get(i))
-                    .map_or(scores.unknown, |&l| scores.of(l));
-                *slot = s;
-                max = max.max(s);
-                any |= s != 0;
+        let (column, within_x) = window.divider.div_rem(low.0 - half);
+        let (row, within_y) = window.divider.div_rem(low.1 - half);
+        self.within_x = within_x;
+        self.within_y = within_y;
+        if self.corner == Some((column, row)) {
+            return 0;
+        }
+        self.look_up(map, scores, column, row);
+        (FOOTPRINT * FOOTPRINT) as u32
+    }
+
+    /// Looks up the block whose lower-left cell is `(column, row)`. Not inlined into the
+    /// loop over the ends: inlined, the loop keeps a pointer to each field on the stack.
+    #[inline(never)]
+    fn look_up(&mut self, map: &GridView, scores: &ScoreTable, column: i32, row: i32) {
+        let mut max = i32::MIN;
+        let mut any = 0;
+        for (r, out) in (row..).zip(self.scores.iter_mut()) {
+            if let Some(cells) = map.run(column, r, FOOTPRINT) {
+                for (slot, &l) in out.iter_mut().zip(cells) {
+                    let s = i32::from(scores.of(l));
+                    *slot = s;
+                    max = max.max(s);
+                    any |= s;
+                }
+            } else {
+                // Across the grid's edge: cell by cell, unknown outside.
+                let cells = map.row(r);
+                for (c, slot) in (column..).zip(out.iter_mut()) {
+                    let s = usize::try_from(c)
+                        .ok()
+                        .and_then(|i| cells.get(i))
+                        .map_or(scores.unknown, |&l| scores.of(l));
+                    let s = i32::from(s);
+                    *slot = s;
+                    max = max.max(s);
+                    any |= s;
+                }
             }
         }
+        self.corner = Some((column, row));
         self.max = max;
-        self.scores_any = any;
-        self.lookups = (rows * columns) as u32;
-        true
+        self.scores_any = any != 0;
     }
-}
-
-/// Fills `out` for `SIDE` steps of `step_mm` from `within` millimetres past the first
-/// cell centre's line (`0..cell`): for each step the cell below, counted from the first,
-/// and how far past its centre. Returns how many cells the interpolation needs (one past
-/// the last), or `None` past [`FOOTPRINT`] or if a step is longer than a cell.
-#[inline]
-fn steps<const SIDE: usize>(
-    out: &mut Steps<SIDE>,
-    mut within: i32,
-    step_mm: i32,
-    cell: i32,
-) -> Option<usize> {
-    if step_mm > cell {
-        return None;
-    }
-    let mut index = 0u8;
-    for (slot, past) in out.cell.iter_mut().zip(out.past.iter_mut()) {
-        // At most one cell a step: a compare, where a loop would be compiled to a divide.
-        if within >= cell {
-            within -= cell;
-            index += 1;
-        }
-        *slot = index;
-        *past = within as i16;
-        within += step_mm;
-    }
-    let cells = usize::from(index) + 2;
-    (cells <= FOOTPRINT).then_some(cells)
 }

@@ -57,7 +57,7 @@ mod sweep;
 pub use footprint::FOOTPRINT;
 pub use score::EndpointScores;
 
-use footprint::Footprint;
+use footprint::{Footprint, Window};
 use score::ScoreTable;
 pub use search::ENDS_A_PIECE;
 pub use sweep::{Sweep, SweepPoint, SweepScan, SWEEP_TICKS};
@@ -275,10 +275,10 @@ struct Work {
     tick: u32,
     prediction: Pose,
     progress: search::Progress,
-    /// What an end scores in each cell of the map, once the search has seen the map.
-    table: Option<ScoreTable>,
-    /// Each end's footprint at the heading in hand.
-    feet: [Footprint<SIDE>; SWEEP_POINTS],
+    /// What the search works out once, when it first sees the map.
+    setup: Option<search::Setup>,
+    /// Each end's footprints, either side of the prediction's heading.
+    feet: [[Footprint; 2]; SWEEP_POINTS],
 }
 
 /// A correlative matcher over [`SIDE`] x [`SIDE`] translations and [`TURNS`] headings,
@@ -402,8 +402,8 @@ impl Matcher {
             tick,
             prediction,
             progress: search::Progress::new(count),
-            table: None,
-            feet: [Footprint::EMPTY; SWEEP_POINTS],
+            setup: None,
+            feet: [[Footprint::EMPTY; 2]; SWEEP_POINTS],
         });
         Ok(())
     }
@@ -429,19 +429,29 @@ impl Matcher {
         let Some(work) = self.work.as_mut() else {
             return Ok(true);
         };
-        let cell = map.geometry().cell_mm;
-        let table = work
-            .table
-            .get_or_insert_with(|| ScoreTable::new(&self.config.scores, map.evidence()));
+        if work.setup.is_none() {
+            let cell = map.geometry().cell_mm;
+            let Some(window) = Window::new(SIDE, self.config.step_mm, cell) else {
+                self.work = None;
+                return Err(MatchRefusal::Window);
+            };
+            work.setup = Some(search::Setup {
+                table: ScoreTable::new(&self.config.scores, map.evidence()),
+                window,
+                cutoff: surface::cutoff(self.config.halving.saturating_mul(cell * cell)),
+            });
+        }
+        let Some(setup) = work.setup.as_ref() else {
+            return Err(MatchRefusal::Window);
+        };
         let count = work.count.min(SWEEP_POINTS);
         let mut search = search::Search {
             map,
-            table,
+            setup,
             points: work.points.get(..count).unwrap_or(&[]),
             feet: work.feet.get_mut(..count).unwrap_or(&mut []),
             prediction: &work.prediction,
             config: &self.config,
-            cutoff: surface::cutoff(self.config.halving.saturating_mul(cell * cell)),
         };
         for _ in 0..pieces {
             match search.piece(&mut self.surface, &mut work.progress) {

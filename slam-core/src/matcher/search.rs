@@ -6,8 +6,7 @@
 //! heading's bound, then its translations [`ENDS_A_PIECE`] beam ends at a time, so that a
 //! caller can let other work run between them.
 
-use super::divide::Divider;
-use super::footprint::{Footprint, FOOTPRINT};
+use super::footprint::{Footprint, Window, FOOTPRINT};
 use super::score::ScoreTable;
 use super::sweep::{q16, SweepPoint};
 use super::{MatchStats, MatcherConfig};
@@ -55,21 +54,30 @@ impl Progress {
     }
 }
 
-/// The search of `points` around `prediction` on `map`, one piece at a time.
-pub(super) struct Search<'a, const SIDE: usize> {
-    pub map: &'a GridView<'a>,
-    /// What an end scores in each cell of `map`.
-    pub table: &'a ScoreTable,
-    pub points: &'a [SweepPoint],
-    /// Each end's footprint at the heading in hand: filled for the bound, kept for the
-    /// translations.
-    pub feet: &'a mut [Footprint<SIDE>],
-    pub prediction: &'a Pose,
-    pub config: &'a MatcherConfig,
+/// What a search works out once, when it first sees the map.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Setup {
+    /// What an end scores in each cell of the map.
+    pub table: ScoreTable,
+    /// The translation window on the map's cells.
+    pub window: Window,
     /// The score drop past which a candidate's weight is zero: a heading whose bound is
     /// that far below the best so far changes nothing in the result, so skipping it keeps
     /// the covariance exact.
     pub cutoff: i32,
+}
+
+/// The search of `points` around `prediction` on `map`, one piece at a time.
+pub(super) struct Search<'a, const SIDE: usize> {
+    pub map: &'a GridView<'a>,
+    pub setup: &'a Setup,
+    pub points: &'a [SweepPoint],
+    /// Each end's footprints on either side of the prediction's heading (`[0]` for it
+    /// and the headings to its right, as the search goes out): filled for a heading's
+    /// bound, kept for its translations and, along the same side, the next heading.
+    pub feet: &'a mut [[Footprint; 2]],
+    pub prediction: &'a Pose,
+    pub config: &'a MatcherConfig,
 }
 
 impl<const SIDE: usize> Search<'_, SIDE> {
@@ -88,24 +96,29 @@ impl<const SIDE: usize> Search<'_, SIDE> {
         let offset = if n % 2 == 1 { n / 2 + 1 } else { -(n / 2) };
         let k = usize::try_from(offset + (TURNS / 2) as i32).ok()?;
         let scores = surface.get_mut(k)?;
-        let heading = self.prediction.heading
-            + Angle::from_millidegrees(i64::from(offset) * i64::from(self.config.step_mdeg));
-        let place = Place::new::<SIDE>(self.map, self.prediction, self.config, heading);
+        let window = &self.setup.window;
+        let cell = window.cell;
         let stats = &mut progress.stats;
+        let side = usize::from(offset < 0);
         match progress.ends {
             None => {
+                let heading = self.prediction.heading
+                    + Angle::from_millidegrees(
+                        i64::from(offset) * i64::from(self.config.step_mdeg),
+                    );
+                let place = Place::new::<SIDE>(self.map, self.prediction, self.config, heading);
                 // Coarse: the bound over the window, from each end's footprint.
-                let divider = Divider::new(place.cell)?;
                 let mut bound = 0i32;
-                for (foot, p) in self.feet.iter_mut().zip(self.points) {
-                    let low = place.of(p);
-                    if !foot.fill(self.map, self.table, low, self.config.step_mm, &divider) {
-                        return None;
+                for (sides, p) in self.feet.iter_mut().zip(self.points) {
+                    let foot = &mut sides[side];
+                    stats.lookups += foot.fill(self.map, &self.setup.table, place.of(p), window);
+                    bound += foot.max * cell * cell;
+                    if offset == 0 {
+                        // The other side's first heading starts from this one's blocks.
+                        sides[1] = sides[0];
                     }
-                    stats.lookups += foot.lookups;
-                    bound += i32::from(foot.max) * place.cell * place.cell;
                 }
-                if progress.best != PRUNED && bound <= progress.best - self.cutoff {
+                if progress.best != PRUNED && bound <= progress.best - self.setup.cutoff {
                     *scores = [[PRUNED; SIDE]; SIDE];
                     stats.headings_pruned += 1;
                     progress.headings += 1;
@@ -116,9 +129,10 @@ impl<const SIDE: usize> Search<'_, SIDE> {
             }
             Some(from) => {
                 let to = from.saturating_add(ENDS_A_PIECE).min(self.points.len());
-                for foot in self.feet.get(from..to).unwrap_or(&[]) {
+                for sides in self.feet.get(from..to).unwrap_or(&[]) {
+                    let foot = &sides[side];
                     if foot.scores_any {
-                        add_translations(scores, foot, place.cell);
+                        add_translations(scores, foot, window);
                         stats.adds += (SIDE * SIDE) as u32;
                     }
                 }
@@ -143,7 +157,6 @@ impl<const SIDE: usize> Search<'_, SIDE> {
 /// Where the window's lowest translation puts a beam end at one heading, in millimetres
 /// from the grid's corner.
 struct Place {
-    cell: i32,
     low_x: i32,
     low_y: i32,
     sin: i32,
@@ -160,7 +173,6 @@ impl Place {
         let geometry = map.geometry();
         let half_side = (SIDE / 2) as i32;
         Place {
-            cell: geometry.cell_mm,
             // The prediction's place from the grid's corner, less half the window.
             low_x: prediction.x_mm() - geometry.origin_x_mm - half_side * config.step_mm,
             low_y: prediction.y_mm() - geometry.origin_y_mm - half_side * config.step_mm,
@@ -178,37 +190,111 @@ impl Place {
     }
 }
 
-/// Adds one end's score at every translation to `scores`: interpolated along x in each
-/// row of its block, then between rows along y, in cells squared (`cell^2` per point of
-/// class score). Every row of the block is worked whether the translations reach it or
-/// not (a few multiplies more, and no zeroed scratch); indices are clamped into the
-/// block, which they never leave, so that none is checked.
+/// One run of x translations within a cell, along a row of translations: what the first
+/// adds and each adds more than the last, and how both change from one row to the next
+/// while the rows stay between the same two block rows.
+#[derive(Clone, Copy)]
+struct Run {
+    first: i32,
+    rise: i32,
+    first_by_row: i32,
+    rise_by_row: i32,
+}
+
+impl Run {
+    /// The run in block column `c` (to `c + 1`), its first translation `past` millimetres
+    /// past the column's centre, along a row of translations between block rows `lo` and
+    /// `hi`, `py` millimetres past `lo`'s centre.
+    #[inline]
+    fn new(
+        lo: &[i32; FOOTPRINT],
+        hi: &[i32; FOOTPRINT],
+        c: usize,
+        past: i32,
+        py: i32,
+        w: &Window,
+    ) -> Run {
+        let (cell, step) = (w.cell, w.step);
+        let c = c.min(FOOTPRINT - 2);
+        let (up, up_next) = (hi[c] - lo[c], hi[c + 1] - lo[c + 1]);
+        let column = lo[c] * cell + up * py;
+        let rise = (lo[c + 1] * cell + up_next * py) - column;
+        let rise_by_row = (up_next - up) * step;
+        Run {
+            first: column * cell + rise * past,
+            rise: rise * step,
+            first_by_row: up * step * cell + rise_by_row * past,
+            rise_by_row: rise_by_row * step,
+        }
+    }
+}
+
+/// Adds one end's score at every translation to `scores`, in cells squared (`cell^2` per
+/// point of class score): the bilinear interpolation of its block.
+///
+/// Along x the interpolation is linear between two cell centres, so a row of
+/// translations is a few runs, one a cell, each adding the same rise to the last; and
+/// between two block rows, a run's first value and rise change by the same amounts from
+/// one row of translations to the next. So a translation costs an add, and the multiplies
+/// are spent only where a run starts or the rows cross a block row. All in integers and
+/// exact, so the order of the work changes nothing.
 #[inline]
 fn add_translations<const SIDE: usize>(
     scores: &mut [[i32; SIDE]; SIDE],
-    f: &Footprint<SIDE>,
-    cell: i32,
+    f: &Footprint,
+    window: &Window,
+) {
+    let cell = window.cell;
+    let mut start = 0;
+    let mut px = f.within_x;
+    for c in 0..FOOTPRINT - 1 {
+        // The translations from `start` that land in block column c's cell.
+        let past = px;
+        let mut end = start;
+        while end < SIDE && px < cell {
+            end += 1;
+            px += window.step;
+        }
+        if end > start {
+            add_run(scores, f, c, start..end, past, window);
+        }
+        start = end;
+        px -= cell;
+    }
+}
+
+/// Adds one run of x translations, `columns`, in block column `c`, at every row of
+/// translations.
+#[inline(never)]
+fn add_run<const SIDE: usize>(
+    scores: &mut [[i32; SIDE]; SIDE],
+    f: &Footprint,
+    c: usize,
+    columns: core::ops::Range<usize>,
+    past: i32,
+    w: &Window,
 ) {
     let last = FOOTPRINT - 2;
-    // Along x: each block row at each x translation.
-    let along: [[i32; SIDE]; FOOTPRINT] = core::array::from_fn(|r| {
-        let row = f.scores.get(r).copied().unwrap_or_default();
-        core::array::from_fn(|i| {
-            let c = f.x.cell.get(i).map_or(0, |&c| usize::from(c).min(last));
-            let past = f.x.past.get(i).map_or(0, |&p| i32::from(p));
-            let (lo, hi) = (i32::from(row[c]), i32::from(row[c + 1]));
-            lo * cell + (hi - lo) * past
-        })
-    });
-    // Between each row and the next: the lower one's share and the rise to the upper.
-    let base: [[i32; SIDE]; FOOTPRINT - 1] = core::array::from_fn(|r| along[r].map(|a| a * cell));
-    let rise: [[i32; SIDE]; FOOTPRINT - 1] =
-        core::array::from_fn(|r| core::array::from_fn(|i| along[r + 1][i] - along[r][i]));
-    for ((row, &r), &past) in scores.iter_mut().zip(f.y.cell.iter()).zip(f.y.past.iter()) {
-        let r = usize::from(r).min(last);
-        let past = i32::from(past);
-        for ((s, &b), &d) in row.iter_mut().zip(base[r].iter()).zip(rise[r].iter()) {
-            *s += b + d * past;
+    let mut r = 0;
+    let mut py = f.within_y;
+    let mut run = Run::new(&f.scores[0], &f.scores[1], c, past, py, w);
+    for row in scores.iter_mut() {
+        let Some(here) = row.get_mut(columns.clone()) else {
+            return;
+        };
+        let mut v = run.first;
+        for s in here.iter_mut() {
+            *s += v;
+            v += run.rise;
+        }
+        py += w.step;
+        if py >= w.cell {
+            py -= w.cell;
+            r = (r + 1).min(last);
+            run = Run::new(&f.scores[r], &f.scores[r + 1], c, past, py, w);
+        } else {
+            run.first += run.first_by_row;
+            run.rise += run.rise_by_row;
         }
     }
 }
