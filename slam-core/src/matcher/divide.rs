@@ -30,11 +30,17 @@ impl Divider {
 
     /// `(floor(u / divisor), u mod divisor)`, the remainder in `0..divisor`: what
     /// `div_euclid` and `rem_euclid` give.
-    #[inline]
+    #[inline(always)]
     pub fn div_rem(&self, u: i32) -> (i32, i32) {
-        if let Some(q) = self.small.fast_floor(u) {
-            return (q, u - q * self.divisor);
+        match self.small.fast_floor(u) {
+            Some(q) => (q, u - q * self.divisor),
+            None => self.div_rem_wide(u),
         }
+    }
+
+    /// [`Divider::div_rem`] past the shortcut's range.
+    #[inline(never)]
+    fn div_rem_wide(&self, u: i32) -> (i32, i32) {
         let Ok(t) = u32::try_from(u) else {
             return (u.div_euclid(self.divisor), u.rem_euclid(self.divisor));
         };

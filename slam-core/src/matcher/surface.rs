@@ -93,41 +93,64 @@ pub(super) fn moments<const SIDE: usize, const TURNS: usize>(
     };
     let (half_side, half_turns) = ((SIDE / 2) as i32, (TURNS / 2) as i32);
     // One pass: the weights' sum, first moments and second moments about the middle, each
-    // candidate's offsets from the middle in steps, `[x, y, heading]`. A product of a
-    // weight (below 2^13) and two offsets (below 2^8) fits 32 bits.
+    // candidate's offsets from the middle in steps, `[x, y, heading]`. Within a heading
+    // plane the heading's offset is the same for every candidate, so the sums over a plane
+    // are kept in 32 bits (a weight below 2^13 times two position offsets below 2^2, over
+    // `SIDE^2` candidates) and the heading's terms come from them once a plane.
+    const {
+        let (side, most) = (SIDE as u64, WEIGHT[0] as u64);
+        assert!(side * side * (side / 2) * (side / 2) * most <= i32::MAX as u64);
+    }
     let (mut total, mut sum) = (0i64, [0i64; 3]);
     let mut about_middle = [[0i64; 3]; 3];
     let mut peak = [0i32; 3];
     let mut peak_distance = i32::MAX;
     for (k, plane) in surface.iter().enumerate() {
+        let h = k as i32 - half_turns;
+        let (mut w_sum, mut x_sum, mut y_sum, mut xx, mut xy, mut yy) = (0i32, 0, 0, 0, 0, 0);
         for (j, row) in plane.iter().enumerate() {
+            let y = j as i32 - half_side;
             for (i, &s) in row.iter().enumerate() {
-                let o = [
-                    i as i32 - half_side,
-                    j as i32 - half_side,
-                    k as i32 - half_turns,
-                ];
+                let x = i as i32 - half_side;
                 if s == best {
-                    let distance = o[0] * o[0] + o[1] * o[1] + o[2] * o[2];
+                    let distance = x * x + y * y + h * h;
                     if distance < peak_distance {
-                        (peak, peak_distance) = (o, distance);
+                        (peak, peak_distance) = ([x, y, h], distance);
                     }
                 }
                 let w = weight(s);
                 if w == 0 {
                     continue;
                 }
-                total += i64::from(w);
-                for ((acc, row), &oa) in sum.iter_mut().zip(about_middle.iter_mut()).zip(&o) {
-                    let wo = w * oa;
-                    *acc += i64::from(wo);
-                    for (m, &ob) in row.iter_mut().zip(&o) {
-                        *m += i64::from(wo * ob);
-                    }
-                }
+                let (wx, wy) = (w * x, w * y);
+                w_sum += w;
+                x_sum += wx;
+                y_sum += wy;
+                xx += wx * x;
+                xy += wx * y;
+                yy += wy * y;
             }
         }
+        let (w_sum, x_sum, y_sum, h) = (
+            i64::from(w_sum),
+            i64::from(x_sum),
+            i64::from(y_sum),
+            i64::from(h),
+        );
+        total += w_sum;
+        sum[0] += x_sum;
+        sum[1] += y_sum;
+        sum[2] += w_sum * h;
+        about_middle[0][0] += i64::from(xx);
+        about_middle[0][1] += i64::from(xy);
+        about_middle[1][1] += i64::from(yy);
+        about_middle[0][2] += x_sum * h;
+        about_middle[1][2] += y_sum * h;
+        about_middle[2][2] += w_sum * h * h;
     }
+    about_middle[1][0] = about_middle[0][1];
+    about_middle[2][0] = about_middle[0][2];
+    about_middle[2][1] = about_middle[1][2];
     if total == 0 {
         return None;
     }
