@@ -30,6 +30,8 @@ pub(super) struct Window {
     pub cell: i32,
     /// One translation step.
     pub step: i32,
+    /// Floor division by the step.
+    pub per_step: Divider,
 }
 
 impl Window {
@@ -45,6 +47,7 @@ impl Window {
             divider: Divider::new(cell)?,
             cell,
             step,
+            per_step: Divider::new(step)?,
         })
     }
 }

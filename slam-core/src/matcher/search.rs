@@ -190,45 +190,6 @@ impl Place {
     }
 }
 
-/// One run of x translations within a cell, along a row of translations: what the first
-/// adds and each adds more than the last, and how both change from one row to the next
-/// while the rows stay between the same two block rows.
-#[derive(Clone, Copy)]
-struct Run {
-    first: i32,
-    rise: i32,
-    first_by_row: i32,
-    rise_by_row: i32,
-}
-
-impl Run {
-    /// The run in block column `c` (to `c + 1`), its first translation `past` millimetres
-    /// past the column's centre, along a row of translations between block rows `lo` and
-    /// `hi`, `py` millimetres past `lo`'s centre.
-    #[inline]
-    fn new(
-        lo: &[i32; FOOTPRINT],
-        hi: &[i32; FOOTPRINT],
-        c: usize,
-        past: i32,
-        py: i32,
-        w: &Window,
-    ) -> Run {
-        let (cell, step) = (w.cell, w.step);
-        let c = c.min(FOOTPRINT - 2);
-        let (up, up_next) = (hi[c] - lo[c], hi[c + 1] - lo[c + 1]);
-        let column = lo[c] * cell + up * py;
-        let rise = (lo[c + 1] * cell + up_next * py) - column;
-        let rise_by_row = (up_next - up) * step;
-        Run {
-            first: column * cell + rise * past,
-            rise: rise * step,
-            first_by_row: up * step * cell + rise_by_row * past,
-            rise_by_row: rise_by_row * step,
-        }
-    }
-}
-
 /// Adds one end's score at every translation to `scores`, in cells squared (`cell^2` per
 /// point of class score): the bilinear interpolation of its block.
 ///
@@ -236,65 +197,105 @@ impl Run {
 /// translations is a few runs, one a cell, each adding the same rise to the last; and
 /// between two block rows, a run's first value and rise change by the same amounts from
 /// one row of translations to the next. So a translation costs an add, and the multiplies
-/// are spent only where a run starts or the rows cross a block row. All in integers and
-/// exact, so the order of the work changes nothing.
+/// are spent once a rectangle of translations between the same four cell centres. All in
+/// integers and exact, so the order of the work changes nothing.
 #[inline]
 fn add_translations<const SIDE: usize>(
     scores: &mut [[i32; SIDE]; SIDE],
     f: &Footprint,
-    window: &Window,
+    w: &Window,
 ) {
-    let cell = window.cell;
-    let mut start = 0;
-    let mut px = f.within_x;
-    for c in 0..FOOTPRINT - 1 {
-        // The translations from `start` that land in block column c's cell.
-        let past = px;
-        let mut end = start;
-        while end < SIDE && px < cell {
-            end += 1;
-            px += window.step;
+    let (cell, step) = (w.cell, w.step);
+    let along_y = Runs::new::<SIDE>(f.within_y, w);
+    let along_x = Runs::new::<SIDE>(f.within_x, w);
+    let mut rows: &mut [[i32; SIDE]] = scores;
+    for (r, (&count, &py)) in along_y.count.iter().zip(&along_y.past).enumerate() {
+        let (here, after) = core::mem::take(&mut rows).split_at_mut(count.min(SIDE));
+        rows = after;
+        let (Some(lo), Some(hi)) = (f.scores.get(r), f.scores.get(r + 1)) else {
+            break;
+        };
+        if here.is_empty() {
+            continue;
         }
-        if end > start {
-            add_run(scores, f, c, start..end, past, window);
+        // The block interpolated along y at this run's first row, a value a column, and
+        // how much each column rises from one block row to the next.
+        let up: [i32; FOOTPRINT] = core::array::from_fn(|c| hi[c] - lo[c]);
+        let column: [i32; FOOTPRINT] = core::array::from_fn(|c| lo[c] * cell + up[c] * py);
+        let mut start = 0;
+        for (c, (&n, &px)) in along_x.count.iter().zip(&along_x.past).enumerate() {
+            let c = c.min(FOOTPRINT - 2);
+            if n > 0 {
+                let rise = column[c + 1] - column[c];
+                let rise_by_row = (up[c + 1] - up[c]) * step;
+                add_rectangle(
+                    here,
+                    start,
+                    n,
+                    column[c] * cell + rise * px,
+                    rise * step,
+                    up[c] * step * cell + rise_by_row * px,
+                    rise_by_row * step,
+                );
+            }
+            start += n;
         }
-        start = end;
-        px -= cell;
     }
 }
 
-/// Adds one run of x translations, `columns`, in block column `c`, at every row of
-/// translations.
+/// The translations along one axis in runs, one a cell: how many, and how far past the
+/// cell's centre the first of each lands.
+struct Runs {
+    count: [usize; FOOTPRINT - 1],
+    past: [i32; FOOTPRINT - 1],
+}
+
+impl Runs {
+    /// The runs of `SIDE` translations a step apart from `within` millimetres past a cell
+    /// centre's line (`0..cell`): counted by division, not stepped through.
+    #[inline]
+    fn new<const SIDE: usize>(within: i32, w: &Window) -> Runs {
+        // How many of the translations land short of `edge` millimetres past the line.
+        let short_of = |edge: i32| -> usize {
+            if edge <= within {
+                return 0;
+            }
+            let (q, _) = w.per_step.div_rem(edge - within - 1);
+            usize::try_from(q + 1).map_or(SIDE, |n| n.min(SIDE))
+        };
+        let (one, two) = (short_of(w.cell), short_of(2 * w.cell));
+        let at = |n: usize, lines: i32| within + n as i32 * w.step - lines * w.cell;
+        Runs {
+            count: [one, two - one, SIDE - two],
+            past: [within, at(one, 1), at(two, 2)],
+        }
+    }
+}
+
+/// Adds a run of `n` translations from column `start` of each of `rows`: `first`, then
+/// `rise` more each; and from one row to the next, `first_by_row` more first and
+/// `rise_by_row` more rise. Its own function, with its numbers as arguments, so that the
+/// M0+ keeps them in registers.
 #[inline(never)]
-fn add_run<const SIDE: usize>(
-    scores: &mut [[i32; SIDE]; SIDE],
-    f: &Footprint,
-    c: usize,
-    columns: core::ops::Range<usize>,
-    past: i32,
-    w: &Window,
+fn add_rectangle<const SIDE: usize>(
+    rows: &mut [[i32; SIDE]],
+    start: usize,
+    n: usize,
+    mut first: i32,
+    mut rise: i32,
+    first_by_row: i32,
+    rise_by_row: i32,
 ) {
-    let last = FOOTPRINT - 2;
-    let mut r = 0;
-    let mut py = f.within_y;
-    let mut run = Run::new(&f.scores[0], &f.scores[1], c, past, py, w);
-    for row in scores.iter_mut() {
-        let Some(here) = row.get_mut(columns.clone()) else {
+    for row in rows.iter_mut() {
+        let Some(span) = row.get_mut(start..start + n) else {
             return;
         };
-        let mut v = run.first;
-        for s in here.iter_mut() {
+        let mut v = first;
+        for s in span.iter_mut() {
             *s += v;
-            v += run.rise;
+            v += rise;
         }
-        py += w.step;
-        if py >= w.cell {
-            py -= w.cell;
-            r = (r + 1).min(last);
-            run = Run::new(&f.scores[r], &f.scores[r + 1], c, past, py, w);
-        } else {
-            run.first += run.first_by_row;
-            run.rise += run.rise_by_row;
-        }
+        first += first_by_row;
+        rise += rise_by_row;
     }
 }
