@@ -199,7 +199,7 @@ impl Place {
 /// one row of translations to the next. So a translation costs an add, and the multiplies
 /// are spent once a rectangle of translations between the same four cell centres. All in
 /// integers and exact, so the order of the work changes nothing.
-#[inline]
+#[inline(never)]
 fn add_translations<const SIDE: usize>(
     scores: &mut [[i32; SIDE]; SIDE],
     f: &Footprint,
@@ -276,7 +276,7 @@ impl Runs {
 /// `rise` more each; and from one row to the next, `first_by_row` more first and
 /// `rise_by_row` more rise. Its own function, with its numbers as arguments, so that the
 /// M0+ keeps them in registers.
-#[inline(never)]
+#[inline(always)]
 fn add_rectangle<const SIDE: usize>(
     rows: &mut [[i32; SIDE]],
     start: usize,

@@ -175,12 +175,42 @@ impl<const N: usize> Sweep<N> {
 
 /// `a * f >> 16` rounded half away from zero (so a mirrored world rounds mirrored), for a
 /// length `a` under `2^15` mm and a Q16 factor within `+-1.0`: one 32-bit multiply.
+/// Without a branch: below zero, `floor((p + 2^15 - 1) / 2^16)` is
+/// `-floor((-p + 2^15) / 2^16)`.
 #[inline]
 pub(crate) fn q16(a: i32, f: i32) -> i32 {
     let p = a.clamp(-(1 << 15) + 1, (1 << 15) - 1) * f;
-    if p >= 0 {
-        (p + (1 << 15)) >> 16
-    } else {
-        -((-p + (1 << 15)) >> 16)
+    (p + (1 << 15) - i32::from(p < 0)) >> 16
+}
+
+#[cfg(test)]
+mod tests {
+    use super::q16;
+
+    /// `a * f / 2^16` rounded half away from zero, in 64 bits.
+    fn reference(a: i32, f: i32) -> i32 {
+        let p = i64::from(a.clamp(-(1 << 15) + 1, (1 << 15) - 1)) * i64::from(f);
+        let magnitude = (p.abs() + (1 << 15)) >> 16;
+        (p.signum() * magnitude) as i32
+    }
+
+    #[test]
+    fn q16_rounds_half_away_from_zero_and_mirrors() {
+        let factors = (-65_536..=65_536)
+            .step_by(97)
+            .chain([-65_536, -1, 0, 1, 65_536]);
+        for f in factors {
+            for a in (-40_000..=40_000)
+                .step_by(313)
+                .chain([-1, 0, 1, 32_767, -32_767])
+            {
+                assert_eq!(q16(a, f), reference(a, f), "{a} x {f}");
+                assert_eq!(q16(-a, f), -q16(a, f), "mirrored {a} x {f}");
+            }
+        }
+        // Exactly half a unit either side of zero.
+        assert_eq!(q16(1, 1 << 15), 1);
+        assert_eq!(q16(-1, 1 << 15), -1);
+        assert_eq!(q16(1, (1 << 15) - 1), 0);
     }
 }
