@@ -14,14 +14,15 @@
 //! and the surface a plateau that pins nothing finer than the cell.
 
 use super::divide::Divider;
+use super::runs::RunTable;
 use super::score::ScoreTable;
 use crate::grid::GridView;
 
 /// Most cells a window may span along each axis, the interpolation's neighbour included.
 pub const FOOTPRINT: usize = 4;
 
-/// The translation window as the footprints see it: the cell, the step and how far the
-/// window reaches from its lowest translation, all in millimetres.
+/// The translation window as the footprints see it: the cell, the step and where the
+/// translations cross cell lines, all in millimetres.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Window {
     /// Floor division by the cell.
@@ -30,8 +31,8 @@ pub(super) struct Window {
     pub cell: i32,
     /// One translation step.
     pub step: i32,
-    /// Floor division by the step.
-    pub per_step: Divider,
+    /// The translations along an axis in runs between cell lines.
+    pub runs: RunTable,
 }
 
 impl Window {
@@ -47,7 +48,7 @@ impl Window {
             divider: Divider::new(cell)?,
             cell,
             step,
-            per_step: Divider::new(step)?,
+            runs: RunTable::new(side, step, cell)?,
         })
     }
 }

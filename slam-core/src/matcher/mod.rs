@@ -4,9 +4,11 @@
 //! - `sweep`: the last ticks' scans, placed relative to each other by the odometry;
 //! - `divide`: floor division by a number fixed for the search, without a divide;
 //! - `score`: what a beam end scores in an occupied, a free or an unknown cell;
+//! - `runs`: where the window's translations cross cell lines;
 //! - `footprint`: the coarse level, the cells each end can reach over the window and
 //!   their maximum;
 //! - `search`: the fine level, every candidate pose by lookups and adds;
+//! - `spread`: the ends' interpolated scores added over the translations;
 //! - `surface`: the pose, covariance and unpinned directions the scores show.
 //!
 //! **Correlative, not Gauss-Newton.** A correlative search (Olson 2009, "Real-time
@@ -49,8 +51,10 @@
 
 mod divide;
 mod footprint;
+mod runs;
 mod score;
 mod search;
+mod spread;
 mod surface;
 mod sweep;
 
@@ -288,6 +292,8 @@ pub struct Matcher {
     config: MatcherConfig,
     cell_mm: i32,
     surface: Surface<SIDE, TURNS>,
+    /// The heading in hand's ends, summed by the patterns of their runs.
+    patterns: spread::Patterns,
     work: Option<Work>,
 }
 
@@ -309,6 +315,7 @@ impl Matcher {
             config,
             cell_mm,
             surface: [[[0; SIDE]; SIDE]; TURNS],
+            patterns: spread::Patterns::EMPTY,
             work: None,
         })
     }
@@ -452,6 +459,7 @@ impl Matcher {
             feet: work.feet.get_mut(..count).unwrap_or(&mut []),
             prediction: &work.prediction,
             config: &self.config,
+            patterns: &mut self.patterns,
         };
         for _ in 0..pieces {
             match search.piece(&mut self.surface, &mut work.progress) {

@@ -6,8 +6,9 @@
 //! heading's bound, then its translations [`ENDS_A_PIECE`] beam ends at a time, so that a
 //! caller can let other work run between them.
 
-use super::footprint::{Footprint, Window, FOOTPRINT};
+use super::footprint::{Footprint, Window};
 use super::score::ScoreTable;
+use super::spread::Patterns;
 use super::sweep::{q16, SweepPoint};
 use super::{MatchStats, MatcherConfig};
 use crate::angle::Angle;
@@ -78,6 +79,8 @@ pub(super) struct Search<'a, const SIDE: usize> {
     pub feet: &'a mut [[Footprint; 2]],
     pub prediction: &'a Pose,
     pub config: &'a MatcherConfig,
+    /// The heading in hand's ends, summed by the patterns of their runs.
+    pub patterns: &'a mut Patterns,
 }
 
 impl<const SIDE: usize> Search<'_, SIDE> {
@@ -124,6 +127,7 @@ impl<const SIDE: usize> Search<'_, SIDE> {
                     progress.headings += 1;
                 } else {
                     *scores = [[0; SIDE]; SIDE];
+                    self.patterns.clear();
                     progress.ends = Some(0);
                 }
             }
@@ -132,13 +136,14 @@ impl<const SIDE: usize> Search<'_, SIDE> {
                 for sides in self.feet.get(from..to).unwrap_or(&[]) {
                     let foot = &sides[side];
                     if foot.scores_any {
-                        add_translations(scores, foot, window);
+                        self.patterns.add(scores, foot, window);
                         stats.adds += (SIDE * SIDE) as u32;
                     }
                 }
                 if to < self.points.len() {
                     progress.ends = Some(to);
                 } else {
+                    self.patterns.spread(scores, &window.runs);
                     for row in scores.iter() {
                         for &s in row.iter() {
                             progress.best = progress.best.max(s);
@@ -187,115 +192,5 @@ impl Place {
             self.low_x + q16(p.right_mm, self.cos) + q16(p.forward_mm, self.sin),
             self.low_y - q16(p.right_mm, self.sin) + q16(p.forward_mm, self.cos),
         )
-    }
-}
-
-/// Adds one end's score at every translation to `scores`, in cells squared (`cell^2` per
-/// point of class score): the bilinear interpolation of its block.
-///
-/// Along x the interpolation is linear between two cell centres, so a row of
-/// translations is a few runs, one a cell, each adding the same rise to the last; and
-/// between two block rows, a run's first value and rise change by the same amounts from
-/// one row of translations to the next. So a translation costs an add, and the multiplies
-/// are spent once a rectangle of translations between the same four cell centres. All in
-/// integers and exact, so the order of the work changes nothing.
-#[inline(never)]
-fn add_translations<const SIDE: usize>(
-    scores: &mut [[i32; SIDE]; SIDE],
-    f: &Footprint,
-    w: &Window,
-) {
-    let (cell, step) = (w.cell, w.step);
-    let along_y = Runs::new::<SIDE>(f.within_y, w);
-    let along_x = Runs::new::<SIDE>(f.within_x, w);
-    let mut rows: &mut [[i32; SIDE]] = scores;
-    for (r, (&count, &py)) in along_y.count.iter().zip(&along_y.past).enumerate() {
-        let (here, after) = core::mem::take(&mut rows).split_at_mut(count.min(SIDE));
-        rows = after;
-        let (Some(lo), Some(hi)) = (f.scores.get(r), f.scores.get(r + 1)) else {
-            break;
-        };
-        if here.is_empty() {
-            continue;
-        }
-        // The block interpolated along y at this run's first row, a value a column, and
-        // how much each column rises from one block row to the next.
-        let up: [i32; FOOTPRINT] = core::array::from_fn(|c| hi[c] - lo[c]);
-        let column: [i32; FOOTPRINT] = core::array::from_fn(|c| lo[c] * cell + up[c] * py);
-        let mut start = 0;
-        for (c, (&n, &px)) in along_x.count.iter().zip(&along_x.past).enumerate() {
-            let c = c.min(FOOTPRINT - 2);
-            if n > 0 {
-                let rise = column[c + 1] - column[c];
-                let rise_by_row = (up[c + 1] - up[c]) * step;
-                add_rectangle(
-                    here,
-                    start,
-                    n,
-                    column[c] * cell + rise * px,
-                    rise * step,
-                    up[c] * step * cell + rise_by_row * px,
-                    rise_by_row * step,
-                );
-            }
-            start += n;
-        }
-    }
-}
-
-/// The translations along one axis in runs, one a cell: how many, and how far past the
-/// cell's centre the first of each lands.
-struct Runs {
-    count: [usize; FOOTPRINT - 1],
-    past: [i32; FOOTPRINT - 1],
-}
-
-impl Runs {
-    /// The runs of `SIDE` translations a step apart from `within` millimetres past a cell
-    /// centre's line (`0..cell`): counted by division, not stepped through.
-    #[inline]
-    fn new<const SIDE: usize>(within: i32, w: &Window) -> Runs {
-        // How many of the translations land short of `edge` millimetres past the line.
-        let short_of = |edge: i32| -> usize {
-            if edge <= within {
-                return 0;
-            }
-            let (q, _) = w.per_step.div_rem(edge - within - 1);
-            usize::try_from(q + 1).map_or(SIDE, |n| n.min(SIDE))
-        };
-        let (one, two) = (short_of(w.cell), short_of(2 * w.cell));
-        let at = |n: usize, lines: i32| within + n as i32 * w.step - lines * w.cell;
-        Runs {
-            count: [one, two - one, SIDE - two],
-            past: [within, at(one, 1), at(two, 2)],
-        }
-    }
-}
-
-/// Adds a run of `n` translations from column `start` of each of `rows`: `first`, then
-/// `rise` more each; and from one row to the next, `first_by_row` more first and
-/// `rise_by_row` more rise. Its own function, with its numbers as arguments, so that the
-/// M0+ keeps them in registers.
-#[inline(always)]
-fn add_rectangle<const SIDE: usize>(
-    rows: &mut [[i32; SIDE]],
-    start: usize,
-    n: usize,
-    mut first: i32,
-    mut rise: i32,
-    first_by_row: i32,
-    rise_by_row: i32,
-) {
-    for row in rows.iter_mut() {
-        let Some(span) = row.get_mut(start..start + n) else {
-            return;
-        };
-        let mut v = first;
-        for s in span.iter_mut() {
-            *s += v;
-            v += rise;
-        }
-        first += first_by_row;
-        rise += rise_by_row;
     }
 }
