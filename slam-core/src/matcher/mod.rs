@@ -286,7 +286,7 @@ struct Work {
 }
 
 /// A correlative matcher over [`SIDE`] x [`SIDE`] translations and [`TURNS`] headings,
-/// with its score surface as scratch (no allocation; `4 * SIDE^2 * TURNS` bytes).
+/// with its score surface and the ends' sums as scratch (no allocation).
 #[derive(Clone, Debug)]
 pub struct Matcher {
     config: MatcherConfig,

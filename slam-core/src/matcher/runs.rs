@@ -104,6 +104,15 @@ impl RunTable {
         }
     }
 
+    /// The same table, its patterns unnumbered: every end spread on its own.
+    #[cfg(test)]
+    pub fn unnumbered(self) -> RunTable {
+        RunTable {
+            tabled: false,
+            ..self
+        }
+    }
+
     /// The run lengths of pattern `p`.
     pub fn counts(&self, p: usize) -> [usize; FOOTPRINT - 1] {
         let [one, two] = self.patterns.get(p).copied().unwrap_or_default();

@@ -3,8 +3,9 @@
 //! skipped when their bound cannot reach a weight in the surface.
 //!
 //! The search goes in pieces, each a few hundred microseconds on the M0+ at most: a
-//! heading's bound, then its translations [`ENDS_A_PIECE`] beam ends at a time, so that a
-//! caller can let other work run between them.
+//! heading's bound, then its translations [`ENDS_A_PIECE`] beam ends at a time (the last
+//! piece spreads the ends' sums over them, see `spread`), so that a caller can let other
+//! work run between them.
 
 use super::footprint::{Footprint, Window};
 use super::score::ScoreTable;

@@ -9,10 +9,10 @@
 //! translation costs an add, and the multiplies are spent once a rectangle.
 //!
 //! Those four numbers are linear in the block's scores, so ends whose runs follow the
-//! same patterns along both axes (`runs`) are summed before they are spread: a heading's
-//! eighty ends fall in a score of patterns, and the translations are visited once a
-//! pattern rather than once an end. All in integers and exact, so neither the order nor
-//! the summing changes the result.
+//! same patterns along both axes (`runs`) are summed before they are spread: with the
+//! seed's window an axis has five patterns, so a heading's eighty ends fall in at most 25
+//! pairs of them, and the translations are visited once a pair rather than once an end.
+//! All in integers and exact, so neither the order nor the summing changes the result.
 
 use super::footprint::{Footprint, Window, FOOTPRINT};
 use super::runs::{RunTable, Runs, PATTERNS};
@@ -201,5 +201,69 @@ fn add_rectangle<const SIDE: usize>(
         }
         first += first_by_row;
         rise += rise_by_row;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lcg::Lcg;
+
+    const SIDE: usize = 7;
+
+    /// The bilinear interpolation of `f`'s block at every translation, one by one.
+    fn interpolated(f: &Footprint, w: &Window) -> [[i32; SIDE]; SIDE] {
+        let at = |within: i32, k: usize| {
+            let p = within + k as i32 * w.step;
+            ((p / w.cell) as usize, p % w.cell)
+        };
+        core::array::from_fn(|j| {
+            core::array::from_fn(|i| {
+                let ((r, py), (c, px)) = (at(f.within_y, j), at(f.within_x, i));
+                let s = |r: usize, c: usize| f.scores[r][c];
+                s(r, c) * (w.cell - px) * (w.cell - py)
+                    + s(r, c + 1) * px * (w.cell - py)
+                    + s(r + 1, c) * (w.cell - px) * py
+                    + s(r + 1, c + 1) * px * py
+            })
+        })
+    }
+
+    #[test]
+    fn summed_or_one_by_one_the_ends_add_their_interpolations() {
+        let Some(w) = Window::new(SIDE, 10, 50) else {
+            panic!("the seed's window refused");
+        };
+        let one_by_one = Window {
+            runs: w.runs.unnumbered(),
+            ..w
+        };
+        let mut rng = Lcg::new(0x005E_ED0F_C0DE);
+        for _ in 0..50 {
+            let (mut summed, mut single, mut want) =
+                ([[0; SIDE]; SIDE], [[0; SIDE]; SIDE], [[0; SIDE]; SIDE]);
+            let (mut patterns, mut unused) = (Patterns::EMPTY, Patterns::EMPTY);
+            for _ in 0..80 {
+                let mut f = Footprint::EMPTY;
+                for row in f.scores.iter_mut() {
+                    for s in row.iter_mut() {
+                        *s = [4, -2, 0][(rng.next_u64() >> 33) as usize % 3];
+                    }
+                }
+                f.within_x = ((rng.next_u64() >> 33) % 50) as i32;
+                f.within_y = ((rng.next_u64() >> 33) % 50) as i32;
+                patterns.add(&mut summed, &f, &w);
+                unused.add(&mut single, &f, &one_by_one);
+                for (row, add) in want.iter_mut().zip(interpolated(&f, &w)) {
+                    for (s, a) in row.iter_mut().zip(add) {
+                        *s += a;
+                    }
+                }
+            }
+            patterns.spread(&mut summed, &w.runs);
+            assert_eq!(unused.used, 0, "unnumbered runs are never summed");
+            assert_eq!(summed, want);
+            assert_eq!(single, want);
+        }
     }
 }
