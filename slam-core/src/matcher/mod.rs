@@ -19,8 +19,9 @@
 //! grid (Hector) needs gradients, products and a 3 x 3 solve per iteration in fixed
 //! point, a number of iterations nobody can bound, and a Hessian that says nothing honest
 //! about a corridor. With 5 cm cells and a 1 cm step the window of +-3 cm is about one
-//! cell wide, so each beam end's cells are looked up once per heading
-//! (`footprint`) and spread over the translations.
+//! cell wide, so each beam end's few cells are looked up once, and again only when a
+//! heading moves the end into another cell (`footprint`), and spread over the
+//! translations (`spread`).
 //!
 //! **The window.** Ten ticks (one second) of scans make one sweep ([`SWEEP_TICKS`]): see
 //! there. The search is [`SIDE`] steps along x and y and [`TURNS`] headings: 7 x 7 x 17
