@@ -636,13 +636,22 @@ impl<const W: usize, const H: usize> Slam<W, H> {
     /// sweep is matched, now or, deferred, by [`Slam::search_match`] and
     /// [`Slam::finish_match`]. Returns the cells written.
     fn sweep_scan(&mut self, scan: &DepthScan, then: &Pose) -> u32 {
-        let written = match self.sweep.push(self.counters.ticks, *then, *scan) {
+        // The scan leaving is written where it lies in the ring, before its slot is
+        // taken: moved out by value it would be copied byte by byte.
+        let written = match self.sweep.leaving() {
             Some(left) => {
                 self.map_uncertainty.wrote(&self.estimator);
-                self.map_scan(&left.scan, &left.pose)
+                map_scan(
+                    &mut self.map.beams(),
+                    &self.config,
+                    &mut self.counters,
+                    &left.scan,
+                    &left.pose,
+                )
             }
             None => 0,
         };
+        self.sweep.push_in_place(self.counters.ticks, then, scan);
         if self.config.matching.is_some() {
             self.match_due = true;
             if !self.defer_matching {

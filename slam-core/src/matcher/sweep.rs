@@ -84,11 +84,38 @@ impl<const N: usize> Sweep<N> {
     /// Adds a scan as the newest; hands back the oldest when the ring was full, so the
     /// caller can write it into the map now that it has left the sweep.
     pub fn push(&mut self, tick: u32, pose: Pose, scan: DepthScan) -> Option<SweepScan> {
-        let slot = self.scans.get_mut(self.next)?;
-        let left = slot.replace(SweepScan { tick, pose, scan });
+        let left = self.leaving().copied();
+        self.push_in_place(tick, &pose, &scan);
+        left
+    }
+
+    /// The scan the next push takes out, if the ring is full.
+    pub fn leaving(&self) -> Option<&SweepScan> {
+        self.scans.get(self.next)?.as_ref()
+    }
+
+    /// [`Sweep::push`] without handing the oldest back: written into its slot field by
+    /// field, where a scan moved in and out by value is copied byte by byte on the M0+.
+    pub fn push_in_place(&mut self, tick: u32, pose: &Pose, scan: &DepthScan) {
+        let Some(slot) = self.scans.get_mut(self.next) else {
+            return;
+        };
+        match slot {
+            Some(s) => {
+                s.tick = tick;
+                s.pose = *pose;
+                s.scan.ranges_mm = scan.ranges_mm;
+            }
+            None => {
+                *slot = Some(SweepScan {
+                    tick,
+                    pose: *pose,
+                    scan: *scan,
+                })
+            }
+        }
         // A compare, not `%`: the M0+ has no divider.
         self.next = if self.next + 1 >= N { 0 } else { self.next + 1 };
-        left
     }
 
     /// The newest scan: the sweep's reference.
