@@ -238,7 +238,8 @@ pub struct MatchStats {
     pub points: u32,
     /// Grid cells looked up.
     pub lookups: u32,
-    /// Scores added into the surface.
+    /// Ends' scores added over the translations: the translations each end that scores
+    /// reaches, whether spread on its own or summed with others first (`spread`).
     pub adds: u32,
     /// Headings whose translations were all scored.
     pub headings_searched: u32,

@@ -104,7 +104,7 @@ impl<const N: usize> Sweep<N> {
             Some(s) => {
                 s.tick = tick;
                 s.pose = *pose;
-                s.scan.ranges_mm = scan.ranges_mm;
+                s.scan = *scan;
             }
             None => {
                 *slot = Some(SweepScan {
