@@ -17,8 +17,8 @@ export function profilersFromEnv(elf, env) {
 export function profileResult({ stepProfile, pcSamples }, steps) {
   const out = {};
   if (stepProfile) {
-    out.step_profile_worst = stepProfile.worst(stepProfile.byPc ? 4000 : 15);
-    out.step_profile = stepProfile.top(stepProfile.byPc ? 2000 : 15, steps);
+    out.step_profile_worst = stepProfile.worst(stepProfile.byPc ? 4000 : 40);
+    out.step_profile = stepProfile.top(stepProfile.byPc ? 2000 : 40, steps);
   }
   if (pcSamples) out.pc_samples = pcSamples.top(pcSamples.shown);
   return out;
