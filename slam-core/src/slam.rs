@@ -433,7 +433,9 @@ impl<const W: usize, const H: usize> Slam<W, H> {
     pub fn step(&mut self, frame: &SensorFrame) -> StepReport {
         // A match left in progress is finished before anything moves.
         #[cfg(feature = "matching")]
-        self.complete_match();
+        if self.match_pending() {
+            self.complete_match();
+        }
         self.counters.ticks = self.counters.ticks.wrapping_add(1);
         let mut stale = Staleness {
             flow: frame.flow.is_none(),
@@ -639,14 +641,14 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         // The scan leaving is written where it lies in the ring, before its slot is
         // taken: moved out by value it would be copied byte by byte.
         let written = match self.sweep.leaving() {
-            Some(left) => {
+            Some((left, pose)) => {
                 self.map_uncertainty.wrote(&self.estimator);
                 map_scan(
                     &mut self.map.beams(),
                     &self.config,
                     &mut self.counters,
-                    &left.scan,
-                    &left.pose,
+                    left,
+                    &pose,
                 )
             }
             None => 0,
@@ -700,10 +702,12 @@ impl<const W: usize, const H: usize> Slam<W, H> {
     /// returns `report` with the pose and the filter's belief after it.
     #[cfg(feature = "matching")]
     pub fn finish_match(&mut self, report: StepReport) -> StepReport {
-        if !self.match_due && !self.matcher.in_progress() && self.matched.is_none() {
+        if !self.match_pending() {
             return report;
         }
         self.complete_match();
+        // Here, off the step, rather than by the next correction in it.
+        self.sweep.settle();
         StepReport {
             pose: self.pose,
             estimate: self.filter().map(Estimator::estimate),
@@ -711,9 +715,17 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         }
     }
 
+    /// Whether a match is due, in progress or found and not yet applied.
+    #[cfg(feature = "matching")]
+    #[inline]
+    fn match_pending(&self) -> bool {
+        self.match_due || self.matcher.in_progress() || self.matched.is_some()
+    }
+
     #[cfg(feature = "matching")]
     /// Starts matching the sweep; a sweep refused at once is counted.
     fn start_match(&mut self) {
+        self.sweep.settle();
         if let Err(why) = self
             .matcher
             .start(&self.sweep, &self.config.depth.beam_angles)
@@ -818,24 +830,35 @@ fn map_scan(
             counters.beams_invalid += 1;
             continue;
         };
-        let range = range as i32;
-        let dir = pose.heading + *angle;
-        let (s, c) = (dir.sin(), dir.cos());
-        // `mul_q16`; a range under 2^15 mm times a sine (at most 2^16) fits 32 bits,
-        // one M0+ multiply.
-        let along = |r: i32, f: i32| {
-            if r < 1 << 15 {
-                (r * f + (1 << 15)) >> 16
-            } else {
-                mul_q16(i64::from(r), f) as i32
-            }
-        };
-        let point = |r: i32| (along(r, s), along(r, c));
-        // Free up to a cell short of where the beam stopped (or of the range limit).
-        let free = point((range.min(max) - cell).max(0));
-        let hit = range < max;
-        written += map.insert_ray(&start, free, point(range.min(max)), hit);
+        let range = i32::from(range);
+        let [free, end] = beam_ends(range, pose.heading + *angle, max, cell);
+        written += map.insert_ray(&start, free, end, range < max);
         counters.beams_mapped += 1;
     }
     written
+}
+
+/// Where a beam of `range` millimetres along `dir` stops being free (a cell short of its
+/// end, or of the range limit `max`) and where it ends, relative to where it starts.
+///
+/// Never inlined: in the loop over a scan's beams its values would go through the stack
+/// on the Cortex-M0+.
+#[inline(never)]
+fn beam_ends(range: i32, dir: Angle, max: i32, cell: i32) -> [(i32, i32); 2] {
+    let (s, c) = dir.sin_cos();
+    // `mul_q16`; a range under 2^15 mm times a sine (at most 2^16) fits 32 bits, one M0+
+    // multiply.
+    let along = |r: i32, f: i32| {
+        if r < 1 << 15 {
+            (r * f + (1 << 15)) >> 16
+        } else {
+            mul_q16(i64::from(r), f) as i32
+        }
+    };
+    let reach = range.min(max);
+    let free = (reach - cell).max(0);
+    [
+        (along(free, s), along(free, c)),
+        (along(reach, s), along(reach, c)),
+    ]
 }

@@ -43,11 +43,20 @@ pub struct SweepPoint {
 }
 
 /// A ring of the last `N` scans, oldest overwritten first; no allocation.
+///
+/// A correction is recorded, not applied ([`Sweep::carry`]): the step that corrects the
+/// pose reads one stored pose (the scan leaving), so it carries that one, and the rest are
+/// carried by [`Sweep::settle`] where the time is spare. Every pose read out is carried,
+/// settled or not, bit for bit as if each correction had been applied at once.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub struct Sweep<const N: usize> {
     scans: [Option<SweepScan>; N],
     /// Slot the next scan goes into.
     next: usize,
+    /// A correction not yet applied to the stored poses.
+    pending: Option<RigidMotion>,
+    /// Scans pushed since `pending` was recorded: the newest ones, already in its frame.
+    fresh: usize,
 }
 
 impl<const N: usize> Default for Sweep<N> {
@@ -62,13 +71,14 @@ impl<const N: usize> Sweep<N> {
         Sweep {
             scans: [None; N],
             next: 0,
+            pending: None,
+            fresh: 0,
         }
     }
 
     /// Forgets every scan.
     pub fn clear(&mut self) {
-        self.scans = [None; N];
-        self.next = 0;
+        *self = Self::new();
     }
 
     /// Scans held.
@@ -84,18 +94,27 @@ impl<const N: usize> Sweep<N> {
     /// Adds a scan as the newest; hands back the oldest when the ring was full, so the
     /// caller can write it into the map now that it has left the sweep.
     pub fn push(&mut self, tick: u32, pose: Pose, scan: DepthScan) -> Option<SweepScan> {
-        let left = self.leaving().copied();
+        let left = self
+            .scans
+            .get(self.next)
+            .copied()
+            .flatten()
+            .map(|s| SweepScan {
+                pose: self.carried(0, &s.pose),
+                ..s
+            });
         self.push_in_place(tick, &pose, &scan);
         left
     }
 
-    /// The scan the next push takes out, if the ring is full.
-    pub fn leaving(&self) -> Option<&SweepScan> {
-        self.scans.get(self.next)?.as_ref()
+    /// The scan the next push takes out, if the ring is full, with its pose.
+    pub fn leaving(&self) -> Option<(&DepthScan, Pose)> {
+        let s = self.scans.get(self.next)?.as_ref()?;
+        Some((&s.scan, self.carried(0, &s.pose)))
     }
 
-    /// [`Sweep::push`] without handing the oldest back: written into its slot field by
-    /// field, where a scan moved in and out by value is copied byte by byte on the M0+.
+    /// [`Sweep::push`] without handing the oldest back: the scan is copied straight into
+    /// its slot, where one moved in and out by value is copied twice on the M0+.
     pub fn push_in_place(&mut self, tick: u32, pose: &Pose, scan: &DepthScan) {
         let Some(slot) = self.scans.get_mut(self.next) else {
             return;
@@ -116,43 +135,73 @@ impl<const N: usize> Sweep<N> {
         }
         // A compare, not `%`: the M0+ has no divider.
         self.next = if self.next + 1 >= N { 0 } else { self.next + 1 };
-    }
-
-    /// The newest scan: the sweep's reference.
-    pub fn newest(&self) -> Option<&SweepScan> {
-        let newest = if self.next == 0 {
-            N.checked_sub(1)?
-        } else {
-            self.next - 1
-        };
-        self.scans.get(newest)?.as_ref()
-    }
-
-    /// The scans held, oldest first.
-    pub fn oldest_first(&self) -> impl Iterator<Item = &SweepScan> {
-        let (newer, older) = self.scans.split_at(self.next.min(N));
-        older.iter().chain(newer.iter()).flatten()
-    }
-
-    /// Takes the oldest scan out.
-    pub fn pop_oldest(&mut self) -> Option<SweepScan> {
-        for i in 0..N {
-            let at = if self.next + i >= N {
-                self.next + i - N
-            } else {
-                self.next + i
-            };
-            if let Some(scan) = self.scans.get_mut(at).and_then(Option::take) {
-                return Some(scan);
+        if self.pending.is_some() {
+            self.fresh += 1;
+            if self.fresh >= N {
+                // Every scan held came after the correction.
+                self.pending = None;
+                self.fresh = 0;
             }
         }
-        None
     }
 
-    /// Moves every stored pose by `motion`, as a correction moves the believed past.
+    /// The newest scan, with its pose: the sweep's reference.
+    pub fn newest(&self) -> Option<SweepScan> {
+        let last = N.checked_sub(1)?;
+        let newest = if self.next == 0 { last } else { self.next - 1 };
+        let s = self.scans.get(newest)?.as_ref()?;
+        Some(SweepScan {
+            pose: self.carried(last, &s.pose),
+            ..*s
+        })
+    }
+
+    /// The scans held, oldest first, each with its pose.
+    fn oldest_first(&self) -> impl Iterator<Item = (Pose, &DepthScan)> {
+        (0..N).filter_map(move |rank| {
+            let s = self.scans.get(self.slot_of(rank))?.as_ref()?;
+            Some((self.carried(rank, &s.pose), &s.scan))
+        })
+    }
+
+    /// Moves every stored pose by `motion`, as a correction moves the believed past:
+    /// recorded, and applied to the poses by [`Sweep::settle`] or as they are read.
     pub fn carry(&mut self, motion: &RigidMotion) {
-        for s in self.scans.iter_mut().flatten() {
-            s.pose = motion.apply(&s.pose);
+        self.settle();
+        self.pending = Some(*motion);
+        self.fresh = 0;
+    }
+
+    /// Applies the recorded correction to the stored poses it concerns.
+    pub fn settle(&mut self) {
+        let Some(motion) = self.pending.take() else {
+            return;
+        };
+        for rank in 0..N.saturating_sub(self.fresh) {
+            let at = self.slot_of(rank);
+            if let Some(Some(s)) = self.scans.get_mut(at) {
+                s.pose = motion.apply(&s.pose);
+            }
+        }
+        self.fresh = 0;
+    }
+
+    /// The slot of the scan `rank` places from the oldest, empty slots counted.
+    fn slot_of(&self, rank: usize) -> usize {
+        let at = self.next + rank;
+        if at >= N {
+            at - N
+        } else {
+            at
+        }
+    }
+
+    /// `pose`, stored `rank` places from the oldest, with the recorded correction if it
+    /// came after the pose was stored.
+    fn carried(&self, rank: usize, pose: &Pose) -> Pose {
+        match &self.pending {
+            Some(motion) if rank + self.fresh < N => motion.apply(pose),
+            _ => *pose,
         }
     }
 
@@ -171,12 +220,12 @@ impl<const N: usize> Sweep<N> {
         };
         let (ref_sin, ref_cos) = (reference.heading.sin(), reference.heading.cos());
         let mut written = 0;
-        for s in self.oldest_first() {
+        for (pose, scan) in self.oldest_first() {
             // The scan's place relative to the reference, in millimetres (a sweep spans
             // centimetres, so 32 bits hold every product below).
-            let dx = s.pose.x_mm().saturating_sub(reference.x_mm());
-            let dy = s.pose.y_mm().saturating_sub(reference.y_mm());
-            for (range, angle) in s.scan.ranges_mm.iter().zip(beam_angles.iter()) {
+            let dx = pose.x_mm().saturating_sub(reference.x_mm());
+            let dy = pose.y_mm().saturating_sub(reference.y_mm());
+            for (range, angle) in scan.ranges_mm.iter().zip(beam_angles.iter()) {
                 let Some(range) = range.filter(|&r| r < max_range_mm) else {
                     continue;
                 };
@@ -184,7 +233,7 @@ impl<const N: usize> Sweep<N> {
                     return written;
                 };
                 let range = i32::from(range);
-                let dir = s.pose.heading + *angle;
+                let dir = pose.heading + *angle;
                 // Map-frame offset of the beam's end from the reference.
                 let ex = dx + q16(range, dir.sin());
                 let ey = dy + q16(range, dir.cos());
@@ -212,7 +261,61 @@ pub(crate) fn q16(a: i32, f: i32) -> i32 {
 
 #[cfg(test)]
 mod tests {
-    use super::q16;
+    use super::{q16, Sweep, SweepScan};
+    use crate::frame::DepthScan;
+    use crate::lcg::Lcg;
+    use crate::pose::{Pose, RigidMotion};
+
+    /// Pushes, corrections, settles and reads in a random order: every pose read out of
+    /// a sweep that records its corrections is the pose of one that applies each at once.
+    #[test]
+    fn a_recorded_correction_reads_as_one_applied_at_once() {
+        const N: usize = 4;
+        let mut rng = Lcg::new(29);
+        let pose = |rng: &mut Lcg| {
+            Pose::from_mm_mdeg(
+                rng.within(3000) as i32,
+                rng.within(3000) as i32,
+                rng.within(180_000),
+            )
+        };
+        let mut lazy: Sweep<N> = Sweep::new();
+        // Oldest first, each correction applied to every scan at once.
+        let mut eager: Vec<SweepScan> = Vec::new();
+        for step in 0..2000u32 {
+            match rng.within(3) {
+                -3..=-1 => {
+                    let (p, scan) = (pose(&mut rng), DepthScan::default());
+                    let expected = (eager.len() == N).then(|| eager.remove(0));
+                    eager.push(SweepScan {
+                        tick: step,
+                        pose: p,
+                        scan,
+                    });
+                    assert_eq!(lazy.push(step, p, scan), expected, "step {step}");
+                }
+                0 | 1 => {
+                    let motion = RigidMotion::carrying(&pose(&mut rng), &pose(&mut rng));
+                    for s in &mut eager {
+                        s.pose = motion.apply(&s.pose);
+                    }
+                    lazy.carry(&motion);
+                }
+                2 => lazy.settle(),
+                _ if rng.within(10) == 0 => {
+                    eager.clear();
+                    lazy.clear();
+                }
+                _ => {}
+            }
+            let read: Vec<Pose> = lazy.oldest_first().map(|(p, _)| p).collect();
+            let expected: Vec<Pose> = eager.iter().map(|s| s.pose).collect();
+            assert_eq!(read, expected, "step {step}");
+            assert_eq!(lazy.newest(), eager.last().copied(), "step {step}");
+            let leaving = (eager.len() == N).then(|| eager[0].pose);
+            assert_eq!(lazy.leaving().map(|(_, p)| p), leaving, "step {step}");
+        }
+    }
 
     /// `a * f / 2^16` rounded half away from zero, in 64 bits.
     fn reference(a: i32, f: i32) -> i32 {
