@@ -28,8 +28,12 @@ pub struct GyroRate {
 }
 
 /// One depth scan: a range per beam, left (most anticlockwise) to right.
+///
+/// Word-aligned, so that a copy is word loads and stores: the M0+'s library copy of a
+/// halfword-aligned array goes halfword by halfword.
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(align(4))]
 pub struct DepthScan {
     /// Range along each beam in millimetres; `None` where the zone had no valid return.
     pub ranges_mm: [Option<u16>; BEAMS],

@@ -26,6 +26,12 @@ struct Entry {
 ///
 /// Times are kept as gaps rather than clock readings, so ages add up with saturation and
 /// stay ordered whatever the ticks' lengths (a clock would wrap).
+///
+/// With matching, a correction can be recorded (`carry_later`) and applied by `settle`;
+/// until then every pose read out is carried on the way, bit for bit the pose a history
+/// that had applied it at once would give. A step that settles later, off its own time,
+/// pays only for the poses it reads. Without matching nothing settles later, and the
+/// bookkeeping is left out of the step.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub struct PoseHistory {
     entries: [Entry; HISTORY_LEN],
@@ -33,6 +39,12 @@ pub struct PoseHistory {
     newest: usize,
     /// Entries held, at most `HISTORY_LEN`.
     len: usize,
+    /// A correction not yet applied to the entries recorded before it.
+    #[cfg(feature = "matching")]
+    pending: Option<RigidMotion>,
+    /// Entries pushed since `pending` was recorded: the newest ones, already in its frame.
+    #[cfg(feature = "matching")]
+    fresh: usize,
 }
 
 impl PoseHistory {
@@ -42,6 +54,10 @@ impl PoseHistory {
             entries: [Entry { pose, dt_us: 0 }; HISTORY_LEN],
             newest: 0,
             len: 1,
+            #[cfg(feature = "matching")]
+            pending: None,
+            #[cfg(feature = "matching")]
+            fresh: 0,
         }
     }
 
@@ -58,13 +74,22 @@ impl PoseHistory {
             *slot = Entry { pose, dt_us };
         }
         self.len = (self.len + 1).min(HISTORY_LEN);
+        #[cfg(feature = "matching")]
+        if self.pending.is_some() {
+            self.fresh += 1;
+            if self.fresh >= HISTORY_LEN {
+                // Every entry held came after the correction.
+                self.pending = None;
+                self.fresh = 0;
+            }
+        }
     }
 
     /// The newest pose.
     pub fn newest(&self) -> Pose {
         self.entries
             .get(self.newest)
-            .map_or_else(Pose::default, |e| e.pose)
+            .map_or_else(Pose::default, |e| self.carried(0, &e.pose))
     }
 
     /// The pose `age_us` before the newest entry: linear in time between the two entries
@@ -72,23 +97,27 @@ impl PoseHistory {
     /// age (so age 0 is the newest pose, bit for bit). `None` if the history does not
     /// reach that far back.
     pub fn at(&self, age_us: u32) -> Option<Pose> {
-        let mut newer: Option<(u32, &Entry)> = None;
+        let mut newer: Option<(u32, usize, &Entry)> = None;
         let mut age = 0u32;
         // Newest first, by index round the ring: no chained iterators in the step.
         let mut index = self.newest;
-        for _ in 0..self.len {
+        for rank in 0..self.len {
             let e = self.entries.get(index)?;
             index = index.checked_sub(1).unwrap_or(HISTORY_LEN - 1);
             if age >= age_us {
+                let pose = self.carried(rank, &e.pose);
                 return Some(match newer {
                     // Here `newer_age < age_us <= age`, so the span is never zero.
-                    Some((newer_age, n)) if age > age_us => {
-                        interpolate(&e.pose, &n.pose, age - age_us, age - newer_age)
-                    }
-                    _ => e.pose,
+                    Some((newer_age, newer_rank, n)) if age > age_us => interpolate(
+                        &pose,
+                        &self.carried(newer_rank, &n.pose),
+                        age - age_us,
+                        age - newer_age,
+                    ),
+                    _ => pose,
                 });
             }
-            newer = Some((age, e));
+            newer = Some((age, rank, e));
             age = age.saturating_add(e.dt_us);
         }
         None
@@ -97,9 +126,55 @@ impl PoseHistory {
     /// Carries every remembered pose by `motion`: after a fix the past is re-expressed in
     /// the corrected frame, so a later, older picture is compared with consistent poses.
     pub fn carry(&mut self, motion: &RigidMotion) {
+        #[cfg(feature = "matching")]
+        self.settle();
         for e in self.entries.iter_mut().take(self.len) {
             e.pose = motion.apply(&e.pose);
         }
+    }
+
+    /// [`PoseHistory::carry`], recorded: applied by [`PoseHistory::settle`], and until
+    /// then to each pose as it is read.
+    #[cfg(feature = "matching")]
+    pub fn carry_later(&mut self, motion: &RigidMotion) {
+        self.settle();
+        self.pending = Some(*motion);
+        self.fresh = 0;
+    }
+
+    /// Applies the recorded correction to the entries it concerns.
+    #[cfg(feature = "matching")]
+    pub fn settle(&mut self) {
+        let Some(motion) = self.pending.take() else {
+            return;
+        };
+        let mut index = self.newest;
+        for rank in 0..self.len {
+            if rank >= self.fresh {
+                if let Some(e) = self.entries.get_mut(index) {
+                    e.pose = motion.apply(&e.pose);
+                }
+            }
+            index = index.checked_sub(1).unwrap_or(HISTORY_LEN - 1);
+        }
+        self.fresh = 0;
+    }
+
+    /// `pose`, held `rank` entries back from the newest, with the recorded correction if
+    /// it came after the entry was pushed.
+    #[cfg(feature = "matching")]
+    fn carried(&self, rank: usize, pose: &Pose) -> Pose {
+        match &self.pending {
+            Some(motion) if rank >= self.fresh => motion.apply(pose),
+            _ => *pose,
+        }
+    }
+
+    /// Without matching nothing is recorded ([`PoseHistory::carry`] applies at once).
+    #[cfg(not(feature = "matching"))]
+    #[inline(always)]
+    fn carried(&self, _: usize, pose: &Pose) -> Pose {
+        *pose
     }
 
     /// The held entries, newest first.
@@ -279,6 +354,57 @@ mod tests {
             for part in [0, 1, whole / 3, whole / 2, whole - 1, whole, whole + 5] {
                 let want = ((part.min(whole) << 16) / whole) as i32;
                 assert_eq!(fraction_q16(part, whole), want, "{part} / {whole}");
+            }
+        }
+    }
+
+    /// Pushes, corrections, settles and reads in a random order: every pose read out of a
+    /// history that records its corrections is the pose of one that applies each at once.
+    #[cfg(feature = "matching")]
+    #[test]
+    fn a_recorded_correction_reads_as_one_applied_at_once() {
+        let mut rng = crate::lcg::Lcg::new(10);
+        let pose = |rng: &mut crate::lcg::Lcg| {
+            Pose::from_mm_mdeg(
+                rng.within(3000) as i32,
+                rng.within(3000) as i32,
+                rng.within(180_000),
+            )
+        };
+        let start = pose(&mut rng);
+        let mut lazy = PoseHistory::new(start);
+        // Oldest first, each correction applied to every entry at once.
+        let mut eager: Vec<(Pose, u32)> = vec![(start, 0)];
+        for step in 0..3000 {
+            match rng.within(2) {
+                -2 | -1 => {
+                    let (p, dt) = (pose(&mut rng), 50_000 + rng.within(50_000) as u32);
+                    lazy.push(p, dt);
+                    eager.push((p, dt));
+                    if eager.len() > HISTORY_LEN {
+                        eager.remove(0);
+                    }
+                }
+                0 => {
+                    let motion = RigidMotion::carrying(&pose(&mut rng), &pose(&mut rng));
+                    if rng.within(1) == 0 {
+                        lazy.carry_later(&motion);
+                    } else {
+                        lazy.carry(&motion);
+                    }
+                    for (p, _) in &mut eager {
+                        *p = motion.apply(p);
+                    }
+                }
+                _ => lazy.settle(),
+            }
+            let mut reference = PoseHistory::new(eager[0].0);
+            for &(p, dt) in &eager[1..] {
+                reference.push(p, dt);
+            }
+            assert_eq!(lazy.newest(), reference.newest(), "step {step}");
+            for age in (0..600_000).step_by(7_919) {
+                assert_eq!(lazy.at(age), reference.at(age), "step {step}, age {age}");
             }
         }
     }

@@ -56,8 +56,10 @@ impl Pose {
 /// odometry travelled since that moment, turned into the fix's heading.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub struct RigidMotion {
-    from: Pose,
-    to: Pose,
+    /// The place turned about, in micrometres: the first pose's (its heading is in `turn`).
+    from: (i32, i32),
+    /// Where that place goes, in micrometres.
+    to: (i32, i32),
     turn: Angle,
     sin: i32,
     cos: i32,
@@ -68,8 +70,8 @@ impl RigidMotion {
     pub fn carrying(from: &Pose, to: &Pose) -> RigidMotion {
         let turn = to.heading - from.heading;
         RigidMotion {
-            from: *from,
-            to: *to,
+            from: (from.x_um, from.y_um),
+            to: (to.x_um, to.y_um),
             turn,
             sin: turn.sin(),
             cos: turn.cos(),
@@ -83,8 +85,8 @@ impl RigidMotion {
     #[inline(never)]
     pub fn apply(&self, pose: &Pose) -> Pose {
         let (Some(dx), Some(dy)) = (
-            pose.x_um.checked_sub(self.from.x_um),
-            pose.y_um.checked_sub(self.from.y_um),
+            pose.x_um.checked_sub(self.from.0),
+            pose.y_um.checked_sub(self.from.1),
         ) else {
             return self.apply_wide(pose);
         };
@@ -99,8 +101,8 @@ impl RigidMotion {
         let x = mul_q16_32(dx, self.cos) + mul_q16_32(dy, self.sin);
         let y = mul_q16_32(dy, self.cos) - mul_q16_32(dx, self.sin);
         Pose {
-            x_um: self.to.x_um.saturating_add(x),
-            y_um: self.to.y_um.saturating_add(y),
+            x_um: self.to.0.saturating_add(x),
+            y_um: self.to.1.saturating_add(y),
             heading: pose.heading + self.turn,
         }
     }
@@ -109,10 +111,10 @@ impl RigidMotion {
     #[cold]
     #[inline(never)]
     fn apply_wide(&self, pose: &Pose) -> Pose {
-        let dx = pose.x_um as i64 - self.from.x_um as i64;
-        let dy = pose.y_um as i64 - self.from.y_um as i64;
-        let x = self.to.x_um as i64 + mul_q16(dx, self.cos) + mul_q16(dy, self.sin);
-        let y = self.to.y_um as i64 + mul_q16(dy, self.cos) - mul_q16(dx, self.sin);
+        let dx = pose.x_um as i64 - self.from.0 as i64;
+        let dy = pose.y_um as i64 - self.from.1 as i64;
+        let x = self.to.0 as i64 + mul_q16(dx, self.cos) + mul_q16(dy, self.sin);
+        let y = self.to.1 as i64 + mul_q16(dy, self.cos) - mul_q16(dx, self.sin);
         Pose {
             x_um: x.clamp(i32::MIN as i64, i32::MAX as i64) as i32,
             y_um: y.clamp(i32::MIN as i64, i32::MAX as i64) as i32,

@@ -595,10 +595,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         }
         if let Some((first, last)) = carried {
             let motion = RigidMotion::carrying(&first, &last);
-            self.history.carry(&motion);
-            #[cfg(feature = "matching")]
-            self.sweep.carry(&motion);
-            self.pose = self.history.newest();
+            self.carry_past(&motion);
             self.estimator.settle_updated();
         } else {
             self.estimator.settle();
@@ -699,15 +696,21 @@ impl<const W: usize, const H: usize> Slam<W, H> {
     }
 
     /// Finishes the match the last step started, if any (searching what is left), and
-    /// returns `report` with the pose and the filter's belief after it.
+    /// returns `report` with the pose and the filter's belief after it. Applies the
+    /// corrections the step left recorded to the remembered poses; a caller that defers
+    /// matching calls it after every step.
     #[cfg(feature = "matching")]
     pub fn finish_match(&mut self, report: StepReport) -> StepReport {
-        if !self.match_pending() {
+        let pending = self.match_pending();
+        if pending {
+            self.complete_match();
+        }
+        // Here, off the step, rather than by the next correction in it.
+        self.history.settle();
+        self.sweep.settle();
+        if !pending {
             return report;
         }
-        self.complete_match();
-        // Here, off the step, rather than by the next correction in it.
-        self.sweep.settle();
         StepReport {
             pose: self.pose,
             estimate: self.filter().map(Estimator::estimate),
@@ -753,12 +756,28 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             Ok(RigidMotion::carrying(&m.prediction, &corrected))
         });
         if let Ok(motion) = &outcome {
-            self.history.carry(motion);
-            self.sweep.carry(motion);
-            self.pose = self.history.newest();
+            self.carry_past(motion);
         }
         self.estimator.settle();
         self.match_counters.count(outcome.map(|_| ()));
+    }
+
+    /// Moves the pose now and every remembered one by a correction. The remembered poses
+    /// take it when they are read; the rest of them at once, unless the caller settles
+    /// them off the step ([`Slam::defer_matching`], then [`Slam::finish_match`]).
+    fn carry_past(&mut self, motion: &RigidMotion) {
+        #[cfg(feature = "matching")]
+        {
+            self.sweep.carry(motion);
+            if self.defer_matching {
+                self.history.carry_later(motion);
+            } else {
+                self.history.carry(motion);
+            }
+        }
+        #[cfg(not(feature = "matching"))]
+        self.history.carry(motion);
+        self.pose = self.history.newest();
     }
 
     fn correct(&mut self, frame: &SensorFrame) -> FixOutcome {
@@ -792,8 +811,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         self.gate_rejections_in_a_row = 0;
         // The pose then becomes the fix; now and every remembered pose move with it.
         let correction = RigidMotion::carrying(&then, &fix);
-        self.history.carry(&correction);
-        self.pose = self.history.newest();
+        self.carry_past(&correction);
         self.counters.fixes_taken += 1;
         FixOutcome::Taken
     }
@@ -830,35 +848,24 @@ fn map_scan(
             counters.beams_invalid += 1;
             continue;
         };
-        let range = i32::from(range);
-        let [free, end] = beam_ends(range, pose.heading + *angle, max, cell);
-        written += map.insert_ray(&start, free, end, range < max);
+        let range = range as i32;
+        let dir = pose.heading + *angle;
+        let (s, c) = (dir.sin(), dir.cos());
+        // `mul_q16`; a range under 2^15 mm times a sine (at most 2^16) fits 32 bits,
+        // one M0+ multiply.
+        let along = |r: i32, f: i32| {
+            if r < 1 << 15 {
+                (r * f + (1 << 15)) >> 16
+            } else {
+                mul_q16(i64::from(r), f) as i32
+            }
+        };
+        let point = |r: i32| (along(r, s), along(r, c));
+        // Free up to a cell short of where the beam stopped (or of the range limit).
+        let free = point((range.min(max) - cell).max(0));
+        let hit = range < max;
+        written += map.insert_ray(&start, free, point(range.min(max)), hit);
         counters.beams_mapped += 1;
     }
     written
-}
-
-/// Where a beam of `range` millimetres along `dir` stops being free (a cell short of its
-/// end, or of the range limit `max`) and where it ends, relative to where it starts.
-///
-/// Never inlined: in the loop over a scan's beams its values would go through the stack
-/// on the Cortex-M0+.
-#[inline(never)]
-fn beam_ends(range: i32, dir: Angle, max: i32, cell: i32) -> [(i32, i32); 2] {
-    let (s, c) = dir.sin_cos();
-    // `mul_q16`; a range under 2^15 mm times a sine (at most 2^16) fits 32 bits, one M0+
-    // multiply.
-    let along = |r: i32, f: i32| {
-        if r < 1 << 15 {
-            (r * f + (1 << 15)) >> 16
-        } else {
-            mul_q16(i64::from(r), f) as i32
-        }
-    };
-    let reach = range.min(max);
-    let free = (reach - cell).max(0);
-    [
-        (along(free, s), along(free, c)),
-        (along(reach, s), along(reach, c)),
-    ]
 }
