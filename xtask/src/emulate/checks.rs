@@ -290,9 +290,9 @@ fn agrees(emulated: f64, simulated: f64, tolerance: Tolerance) -> bool {
 pub const EMULATED_INSIDE_PCT: f64 = 85.0;
 
 /// `host-sim run`'s figures for `scenario` (relative to the workspace) on the route's seed,
-/// in the pose mode the firmware flies: the filter, or else the two-tag fix.
-pub fn host_sim_run(scenario: &str, filter: bool) -> Result<serde_json::Value, String> {
-    let pose = if filter { "filter" } else { "tags" };
+/// in the pose mode `pose` (`--pose`'s name; the view's `localiser` names the one the
+/// firmware flies).
+pub fn host_sim_run(scenario: &str, pose: &str) -> Result<serde_json::Value, String> {
     let mut run = Command::new(host_sim_binary());
     run.arg("run")
         .arg(workspace_root().join(scenario))
@@ -301,10 +301,22 @@ pub fn host_sim_run(scenario: &str, filter: bool) -> Result<serde_json::Value, S
         .map_err(|e| format!("host-sim run's figures are not JSON: {e}"))
 }
 
+/// The pose mode the emulated firmware flew (its `Hello`, as the view names it), and
+/// whether the filter was in it (alone or with the matcher).
+pub fn flown(f: &serde_json::Value) -> Result<(&str, bool), String> {
+    match f["view"]["localiser"].as_str() {
+        Some(pose @ ("filter" | "slam")) => Ok((pose, true)),
+        Some(pose @ ("tags" | "dead-reckoning")) => Ok((pose, false)),
+        other => Err(format!(
+            "the emulated firmware's telemetry names no pose mode host-sim flies: {other:?}"
+        )),
+    }
+}
+
 pub fn route_run() -> Result<(u64, u64), String> {
     let f = crate::emulator_figures(&["--seconds", ROUTE_SECONDS, "--seed", ROUTE_SEED])?;
-    let filter = f["view"]["localiser"].as_str() == Some("filter");
-    let sim = host_sim_run("host-sim/scenarios/seed-mat.toml", filter)?;
+    let (pose, filter) = flown(&f)?;
+    let sim = host_sim_run("host-sim/scenarios/seed-mat.toml", pose)?;
     let (e, v) = (&f["emulator"], &f["view"]);
     let num = |x: &serde_json::Value| x.as_f64().unwrap_or(f64::NAN);
     let first_fix_into_route = num(&v["first_fix_s"]) - num(&v["route_start_s"]);
@@ -419,8 +431,8 @@ const ROOM_SECONDS_F: f64 = 96.0;
 /// failed).
 pub fn room_run() -> Result<(u64, u64), String> {
     let f = crate::emulator_figures(&[ROOM, "--seconds", ROOM_SECONDS, "--seed", ROUTE_SEED])?;
-    let filter = f["view"]["localiser"].as_str() == Some("filter");
-    let sim = host_sim_run(ROOM, filter)?;
+    let (pose, _) = flown(&f)?;
+    let sim = host_sim_run(ROOM, pose)?;
     let v = &f["view"];
     let num = |x: &serde_json::Value| x.as_f64().unwrap_or(f64::NAN);
     let mut checks = world_checks(&f, &sim, ROOM_SECONDS_F);
@@ -583,7 +595,7 @@ pub fn world_checks(
             ),
         ),
     ]);
-    if v["localiser"].as_str() == Some("filter") {
+    if matches!(v["localiser"].as_str(), Some("filter" | "slam")) {
         let (ve, se) = (&v["estimator"], &sim["estimator"]);
         let (used_e, used_s) = (num(&ve["tags"]["used"]), num(&se["tags"]["used"]));
         checks.extend([
@@ -780,6 +792,16 @@ INFO motion: route done, motors coasting\n";
             .iter()
             .any(|w| w.starts_with("pose, filter and counters kept")));
         assert!(failed.iter().any(|w| w.starts_with("the route resumed")));
+    }
+
+    #[test]
+    fn the_pose_mode_flown_is_the_telemetrys_and_an_unknown_one_is_an_error() {
+        let view = |name: &str| serde_json::json!({ "view": { "localiser": name } });
+        assert_eq!(flown(&view("slam")), Ok(("slam", true)));
+        assert_eq!(flown(&view("filter")), Ok(("filter", true)));
+        assert_eq!(flown(&view("tags")), Ok(("tags", false)));
+        assert!(flown(&view("?")).unwrap_err().contains("\"?\""));
+        assert!(flown(&serde_json::json!({})).is_err());
     }
 
     #[test]

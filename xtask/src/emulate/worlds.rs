@@ -106,9 +106,9 @@ fn fly(world: &Path) -> Result<Row, String> {
         |s| s.to_string_lossy().into_owned(),
     );
     let scenario = world.to_string_lossy();
-    // The firmware flies the filter; host-sim is asked for the same once the emulator
-    // says so, but the route's length is the same in any mode.
-    let route = host_sim_run(&scenario, true)?;
+    // The route's length is the same in any mode; host-sim is asked for the firmware's
+    // own once the emulator has said which it flies.
+    let route = host_sim_run(&scenario, "filter")?;
     let num = |x: &serde_json::Value| x.as_f64().unwrap_or(f64::NAN);
     let route_s = num(&route["duration_s"]);
     if !route_s.is_finite() || route_s <= 0.0 {
@@ -124,10 +124,9 @@ fn fly(world: &Path) -> Result<Row, String> {
         checks::ROUTE_SEED,
     ])?;
     let v = &f["view"];
-    let sim = if v["localiser"].as_str() == Some("filter") {
-        route
-    } else {
-        host_sim_run(&scenario, false)?
+    let sim = match checks::flown(&f)? {
+        ("filter", _) => route,
+        (pose, _) => host_sim_run(&scenario, pose)?,
     };
     let mut all = world_checks(&f, &sim, seconds);
     all.extend(error_checks(v, &sim));
