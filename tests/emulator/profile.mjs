@@ -18,6 +18,7 @@ export function profileResult({ stepProfile, pcSamples }, steps) {
   const out = {};
   if (stepProfile) {
     out.step_profile_worst = stepProfile.worst(stepProfile.byPc ? 4000 : 40);
+    out.step_profile_second = stepProfile.second(stepProfile.byPc ? 4000 : 40);
     out.step_profile = stepProfile.top(stepProfile.byPc ? 2000 : 40, steps);
   }
   if (pcSamples) out.pc_samples = pcSamples.top(pcSamples.shown);
@@ -36,8 +37,12 @@ function functionProfiler(elf, byPc) {
   // (the window stays open after it until the core sleeps).
   let pending = [];
   let marked = 0;
+  // The costliest step's cycles by function, and the next costliest's: what sets the
+  // worst step apart shows in the difference.
   let worst = new Map();
   let worstTotal = 0;
+  let second = new Map();
+  let secondTotal = 0;
   const find = (pc) => {
     let a = 0, b = fns.length - 1;
     while (a <= b) {
@@ -60,20 +65,30 @@ function functionProfiler(elf, byPc) {
         mine.set(pending[i], (mine.get(pending[i]) || 0) + pending[i + 1]);
         total += pending[i + 1];
       }
-      if (total > worstTotal) { worstTotal = total; worst = mine; }
+      if (total > worstTotal) {
+        [second, secondTotal] = [worst, worstTotal];
+        [worst, worstTotal] = [mine, total];
+      } else if (total > secondTotal) {
+        [second, secondTotal] = [mine, total];
+      }
       pending = [];
       marked = 0;
     },
     /// The costliest step's cycles by function.
-    worst(n) {
-      return [...worst].sort((x, y) => y[1] - x[1]).slice(0, n).map(([f, c]) => `${c} cycles ${f}`);
-    },
+    worst(n) { return costliest(worst, n); },
+    /// The next costliest step's, likewise.
+    second(n) { return costliest(second, n); },
     /// Mean cycles per step by function, the costliest first.
     top(n, steps) {
       return [...cycles].sort((x, y) => y[1] - x[1]).slice(0, n)
         .map(([f, c]) => `${Math.round(c / Math.max(1, steps))} cycles/step ${f}`);
     },
   };
+}
+
+/// A step's `n` costliest entries, each as "C cycles WHERE".
+function costliest(step, n) {
+  return [...step].sort((x, y) => y[1] - x[1]).slice(0, n).map(([f, c]) => `${c} cycles ${f}`);
 }
 
 /// Core 0's PC, sampled every 1024th instruction.

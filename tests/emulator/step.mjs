@@ -248,6 +248,12 @@ export class StepMeter {
       step_cycles_over_budget: sorted.filter((c) => c > STEP_BUDGET_CYCLES).length,
       step_us_max_at_125mhz: sorted.length ? round(max / CYCLES_PER_US, 1) : null,
       step_isr_cycles_excluded_max: this.isrCycles.length ? Math.max(...this.isrCycles) : 0,
+      // The five costliest steps, each as "tick N: C cycles" (N counts from 0).
+      step_cycles_costliest: this.cycles
+        .map((c, i) => [c, i])
+        .sort((x, y) => y[0] - x[0])
+        .slice(0, 5)
+        .map(([c, i]) => `tick ${i}: ${c} cycles`),
       ...this.filterSummary(),
     };
   }
