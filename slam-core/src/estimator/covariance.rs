@@ -53,7 +53,7 @@ fn products_fit_i32(k1: &[i32; N], a1: &[i32; N], k2: &[i32; N], a2: &[i32; N]) 
 }
 
 /// Whether every rounded `(k1[i] a1[j] + k2[i] a2[j]) / 2^16` fits an `i32`: then
-/// [`Covariance::update_halves`] gives it exactly.
+/// [`Covariance::update_by_rows`] gives it exactly.
 fn update_fits_i32(k1: &[i32; N], a1: &[i32; N], k2: &[i32; N], a2: &[i32; N]) -> bool {
     let bound = wide_mul_unsigned(max_abs(k1), max_abs(a1))
         + wide_mul_unsigned(max_abs(k2), max_abs(a2))
@@ -61,10 +61,11 @@ fn update_fits_i32(k1: &[i32; N], a1: &[i32; N], k2: &[i32; N], a2: &[i32; N]) -
     bound < 1 << (31 + GAIN_SHIFT)
 }
 
-/// Whether `|u1[i]| + |u2[i]|` stays below `2^16 - 1` for every pair of entries: then
-/// each sum of their products with 16-bit halves, and the rounding bias, fits 31 bits.
-fn short_pair(u1: &[i32; N], u2: &[i32; N]) -> bool {
-    max_abs(u1).saturating_add(max_abs(u2)) < (1 << 16) - 1
+/// Whether `|x1| + |x2|` is below `2^16 - 1`: then each sum of their products with
+/// 16-bit halves, and the rounding bias, fits 31 bits.
+#[inline(always)]
+fn short_pair(x1: i32, x2: i32) -> bool {
+    x1.unsigned_abs().saturating_add(x2.unsigned_abs()) < (1 << 16) - 1
 }
 
 /// A vector in 16-bit halves, `x = hi 2^16 + lo`, `|hi| <= 2^15`, and `lo` within
@@ -351,15 +352,9 @@ impl Covariance {
                 self.update_narrow([(&k1, &a1), (&k2, &a2)])
             }
             // Larger ones whose result fits 32 bits: two single-cycle multiplies a product
-            // when the gains are short (a sighting's mostly are), four of halves otherwise.
-            // Splitting the gains instead when the `P h`s are short is rare, and its copy
-            // of the loop costs more flash than the budget has.
+            // in a row whose gains are short (a sighting's mostly are), four otherwise.
             (Some(k1), Some(a1), Some(k2), Some(a2)) if update_fits_i32(&k1, &a1, &k2, &a2) => {
-                if short_pair(&k1, &k2) {
-                    self.update_split::<false>([(&k1, &a1), (&k2, &a2)])
-                } else {
-                    self.update_halves([(&k1, &a1), (&k2, &a2)])
-                }
+                self.update_by_rows([(&k1, &a1), (&k2, &a2)])
             }
             // A working filter's gains and `P h` fit 32 bits: 32 x 32 multiplies.
             (Some(k1), Some(a1), Some(k2), Some(a2)) => self.update_32x32([(&k1, &a1), (&k2, &a2)]),
@@ -383,61 +378,50 @@ impl Covariance {
     }
 
     /// [`Covariance::update`]'s `P - k1 a1^T - k2 a2^T` where each rounded sum fits 32
-    /// bits ([`update_fits_i32`]) and one side is short ([`short_pair`]): the gains
-    /// (`SPLIT_GAIN == false`, the other side then split) or the `P h`s. With the long
-    /// side in [`Halves`], `x (hi 2^16 + lo)` summed over both updates and rounded is
-    /// `sum x hi + (sum x lo + 2^15) / 2^16`: the low sum is exact in 32 bits, the high
-    /// one wraps as the whole does not. Two multiplies a product where halves take four.
-    fn update_split<const SPLIT_GAIN: bool>(&mut self, updates: [(&[i32; N], &[i32; N]); 2]) {
+    /// bits ([`update_fits_i32`]), row by row from the `P h`s' [`Halves`]: `x (hi 2^16 +
+    /// lo)` summed over both updates and rounded is `sum x hi + (sum x lo + 2^15) / 2^16`,
+    /// the high sum wrapping as the whole does not. A row whose two gains are short
+    /// ([`short_pair`]) takes them whole, two multiplies a product; a row with a long
+    /// gain splits it too, `hi hi 2^16 + (hi lo + lo hi) + (lo lo + 2^15) / 2^16`, four.
+    /// Only the last term is shifted, and it is exact in 32 bits.
+    fn update_by_rows(&mut self, updates: [(&[i32; N], &[i32; N]); 2]) {
         let [(k1, a1), (k2, a2)] = updates;
-        let (h1, h2) = if SPLIT_GAIN {
-            (Halves::of(k1, false), Halves::of(k2, false))
-        } else {
-            (Halves::of(a1, true), Halves::of(a2, true))
-        };
+        let (a1, a2) = (Halves::of(a1, true), Halves::of(a2, true));
         for i in 0..N {
-            for j in i..N {
-                let (x1, x2, at) = if SPLIT_GAIN {
-                    (a1[j], a2[j], i)
-                } else {
-                    (k1[i], k2[i], j)
-                };
-                let high = x1
-                    .wrapping_mul(h1.hi[at])
-                    .wrapping_add(x2.wrapping_mul(h2.hi[at]));
-                let low = x1 * h1.lo[at] + x2 * h2.lo[at] + (1 << (GAIN_SHIFT - 1));
-                let d = high.wrapping_add(low >> GAIN_SHIFT);
-                let v = self.m[i][j].saturating_sub(d).max(-i32::MAX);
-                self.m[i][j] = v;
-                self.m[j][i] = v;
+            let (x1, x2) = (k1[i], k2[i]);
+            if short_pair(x1, x2) {
+                for j in i..N {
+                    let high = x1
+                        .wrapping_mul(a1.hi[j])
+                        .wrapping_add(x2.wrapping_mul(a2.hi[j]));
+                    let low = x1 * a1.lo[j] + x2 * a2.lo[j] + (1 << (GAIN_SHIFT - 1));
+                    let d = high.wrapping_add(low >> GAIN_SHIFT);
+                    self.subtract(i, j, d);
+                }
+            } else {
+                let ([h1, l1], [h2, l2]) = (halves(x1, false), halves(x2, false));
+                for j in i..N {
+                    let high = (h1 * a1.hi[j]).wrapping_add(h2 * a2.hi[j]);
+                    let middle = (h1 * a1.lo[j])
+                        .wrapping_add(l1 * a1.hi[j])
+                        .wrapping_add(h2 * a2.lo[j])
+                        .wrapping_add(l2 * a2.hi[j]);
+                    let low = l1 * a1.lo[j] + l2 * a2.lo[j] + (1 << (GAIN_SHIFT - 1));
+                    let d = (high << 16)
+                        .wrapping_add(middle)
+                        .wrapping_add(low >> GAIN_SHIFT);
+                    self.subtract(i, j, d);
+                }
             }
         }
     }
 
-    /// [`Covariance::update`]'s `P - k1 a1^T - k2 a2^T` where each rounded sum fits 32
-    /// bits ([`update_fits_i32`]): from the vectors' [`Halves`], the sum's bits 16 to 47
-    /// as `hi hi 2^16 + (hi lo + lo hi) + (lo lo + 2^15) / 2^16`. Only the last term is
-    /// shifted, and it is exact in 32 bits; the others wrap, as the whole does not.
-    fn update_halves(&mut self, updates: [(&[i32; N], &[i32; N]); 2]) {
-        let [(k1, a1), (k2, a2)] = updates;
-        let (k1, a1) = (Halves::of(k1, false), Halves::of(a1, true));
-        let (k2, a2) = (Halves::of(k2, false), Halves::of(a2, true));
-        for i in 0..N {
-            for j in i..N {
-                let high = (k1.hi[i] * a1.hi[j]).wrapping_add(k2.hi[i] * a2.hi[j]);
-                let middle = (k1.hi[i] * a1.lo[j])
-                    .wrapping_add(k1.lo[i] * a1.hi[j])
-                    .wrapping_add(k2.hi[i] * a2.lo[j])
-                    .wrapping_add(k2.lo[i] * a2.hi[j]);
-                let low = k1.lo[i] * a1.lo[j] + k2.lo[i] * a2.lo[j] + (1 << (GAIN_SHIFT - 1));
-                let d = (high << 16)
-                    .wrapping_add(middle)
-                    .wrapping_add(low >> GAIN_SHIFT);
-                let v = self.m[i][j].saturating_sub(d).max(-i32::MAX);
-                self.m[i][j] = v;
-                self.m[j][i] = v;
-            }
-        }
+    /// Takes `d` off entry `(i, j)` and its mirror, held short of `i32::MIN`.
+    #[inline(always)]
+    fn subtract(&mut self, i: usize, j: usize, d: i32) {
+        let v = self.m[i][j].saturating_sub(d).max(-i32::MAX);
+        self.m[i][j] = v;
+        self.m[j][i] = v;
     }
 
     /// [`Covariance::update`]'s `P - k1 a1^T - k2 a2^T` for 32-bit gains and `P h`.
@@ -745,48 +729,7 @@ mod tests {
     }
 
     #[test]
-    fn update_split_is_the_32x32_one_bit_for_bit() {
-        let mut rng = Lcg::new(31);
-        let mut taken = [0; 2];
-        for n in 0..40_000 {
-            let (p, _, _) = case(&mut rng, 20 + (n % 11) as u32);
-            // One side short (up to 2^15 an entry, so a pair may pass the limit), the
-            // other of any size.
-            let short_bits = 4 + (n % 12) as u32;
-            let long_bits = 8 + (n / 12 % 24) as u32;
-            let mut vector = |bits: u32| -> [i32; N] {
-                core::array::from_fn(|_| rng.within((1 << bits) - 1) as i32)
-            };
-            let (s1, s2, l1, l2) = (
-                vector(short_bits),
-                vector(short_bits),
-                vector(long_bits),
-                vector(long_bits),
-            );
-            for (split_gain, (k1, a1, k2, a2)) in
-                [(false, (s1, l1, s2, l2)), (true, (l1, s1, l2, s2))]
-            {
-                let short = if split_gain { (&a1, &a2) } else { (&k1, &k2) };
-                if !(update_fits_i32(&k1, &a1, &k2, &a2) && short_pair(short.0, short.1)) {
-                    continue;
-                }
-                taken[usize::from(split_gain)] += 1;
-                let mut fast = p;
-                if split_gain {
-                    fast.update_split::<true>([(&k1, &a1), (&k2, &a2)]);
-                } else {
-                    fast.update_split::<false>([(&k1, &a1), (&k2, &a2)]);
-                }
-                let mut wide = p;
-                wide.update_32x32([(&k1, &a1), (&k2, &a2)]);
-                assert_eq!(fast, wide, "case {n}, gain split {split_gain}");
-            }
-        }
-        assert!(taken.iter().all(|&t| t > 10_000), "{taken:?}");
-    }
-
-    #[test]
-    fn update_from_halves_is_the_32x32_one_bit_for_bit() {
+    fn update_by_rows_is_the_32x32_one_bit_for_bit() {
         let mut rng = Lcg::new(9);
         let edges = [
             0,
@@ -802,7 +745,7 @@ mod tests {
             -i32::MAX,
             i32::MIN,
         ];
-        let mut taken = 0;
+        let (mut taken, mut rows) = (0, [0; 2]);
         for n in 0..40_000 {
             let bits = 8 + (n % 24) as u32;
             let (p, _, _) = case(&mut rng, 20 + (n % 11) as u32);
@@ -816,17 +759,30 @@ mod tests {
                     }
                 })
             };
-            let (k1, a1, k2, a2) = (vector(), vector(), vector(), vector());
+            let (mut k1, a1, mut k2, a2) = (vector(), vector(), vector(), vector());
+            // Some rows' gains short, the rest as drawn: both kinds of row in one update.
+            let short_rows = rng.within(1 << N) as u32;
+            for i in (0..N).filter(|i| short_rows & (1 << i) != 0) {
+                k1[i] >>= 17;
+                k2[i] >>= 17;
+            }
             if !update_fits_i32(&k1, &a1, &k2, &a2) {
                 continue;
             }
             taken += 1;
+            for i in 0..N {
+                rows[usize::from(short_pair(k1[i], k2[i]))] += 1;
+            }
             let mut fast = p;
-            fast.update_halves([(&k1, &a1), (&k2, &a2)]);
+            fast.update_by_rows([(&k1, &a1), (&k2, &a2)]);
             let mut wide = p;
             wide.update_32x32([(&k1, &a1), (&k2, &a2)]);
             assert_eq!(fast, wide, "case {n}");
         }
         assert!(taken > 10_000, "{taken}");
+        assert!(
+            rows.iter().all(|&r| r > 10_000),
+            "long and short rows {rows:?}"
+        );
     }
 }
