@@ -635,29 +635,23 @@ impl<const W: usize, const H: usize> Slam<W, H> {
     /// sweep is matched, now or, deferred, by [`Slam::search_match`] and
     /// [`Slam::finish_match`]. Returns the cells written.
     fn sweep_scan(&mut self, scan: &DepthScan, then: &Pose) -> u32 {
-        // The scan leaving is written where it lies in the ring, before its slot is
-        // taken: moved out by value it would be copied byte by byte.
-        let written = match self.sweep.leaving() {
-            Some((left, pose)) => {
-                self.map_uncertainty.wrote(&self.estimator);
-                map_scan(
-                    &mut self.map.beams(),
-                    &self.config,
-                    &mut self.counters,
-                    left,
-                    &pose,
-                )
-            }
-            None => 0,
-        };
-        self.sweep.push_in_place(self.counters.ticks, then, scan);
+        let written = sweep_in(
+            &mut self.sweep,
+            &mut self.map.beams(),
+            &self.config,
+            &mut self.counters,
+            (scan, then),
+        );
+        if written.is_some() {
+            self.map_uncertainty.wrote(&self.estimator);
+        }
         if self.config.matching.is_some() {
             self.match_due = true;
             if !self.defer_matching {
                 self.complete_match();
             }
         }
-        written
+        written.unwrap_or(0)
     }
 
     /// Leaves each step's match to the caller ([`Slam::search_match`], then
@@ -768,16 +762,18 @@ impl<const W: usize, const H: usize> Slam<W, H> {
     fn carry_past(&mut self, motion: &RigidMotion) {
         #[cfg(feature = "matching")]
         {
-            self.sweep.carry(motion);
-            if self.defer_matching {
-                self.history.carry_later(motion);
-            } else {
-                self.history.carry(motion);
-            }
+            self.pose = carry_sweep_and_history(
+                &mut self.sweep,
+                &mut self.history,
+                motion,
+                self.defer_matching,
+            );
         }
         #[cfg(not(feature = "matching"))]
-        self.history.carry(motion);
-        self.pose = self.history.newest();
+        {
+            self.history.carry(motion);
+            self.pose = self.history.newest();
+        }
     }
 
     fn correct(&mut self, frame: &SensorFrame) -> FixOutcome {
@@ -827,10 +823,52 @@ impl<const W: usize, const H: usize> Slam<W, H> {
     }
 }
 
+/// [`Slam::carry_past`] with matching: the sweep, then the history (recorded if `later`);
+/// returns the pose now. Not generic over the grid's size, so that it is built in this
+/// crate at its optimisation level (the caller's crate may build for size, where the
+/// recorded motion's copy is a call).
+#[cfg(feature = "matching")]
+fn carry_sweep_and_history(
+    sweep: &mut Sweep<SWEEP_TICKS>,
+    history: &mut PoseHistory,
+    motion: &RigidMotion,
+    later: bool,
+) -> Pose {
+    sweep.carry(motion);
+    if later {
+        history.carry_later(motion);
+    } else {
+        history.carry(motion);
+    }
+    history.newest()
+}
+
+/// Puts this tick's scan, taken at `then`, into the sweep; the scan it pushes out goes
+/// into the grid, at its pose carried by any recorded correction. Returns the cells that
+/// one wrote, `None` if none left. The leaving scan is written where it lies in the
+/// ring, before its slot is taken: moved out by value it would be copied byte by byte.
+/// Not generic over the grid's size (as [`carry_sweep_and_history`]).
+#[cfg(feature = "matching")]
+#[inline(never)]
+fn sweep_in(
+    sweep: &mut Sweep<SWEEP_TICKS>,
+    map: &mut BeamWriter<'_>,
+    config: &SlamConfig,
+    counters: &mut Counters,
+    (scan, then): (&DepthScan, &Pose),
+) -> Option<u32> {
+    let written = sweep
+        .leaving()
+        .map(|(left, pose)| map_scan(map, config, counters, left, &pose));
+    sweep.push_in_place(counters.ticks, then, scan);
+    written
+}
+
 /// Writes `scan`, taken at `pose`, into the grid; returns the cells written.
 ///
 /// Not generic over the grid's size (the beams go through a [`BeamWriter`]): one copy,
 /// built in this crate, whatever grid the caller sizes.
+#[cfg_attr(feature = "matching", inline(always))]
 fn map_scan(
     map: &mut BeamWriter<'_>,
     config: &SlamConfig,
