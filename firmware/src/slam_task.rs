@@ -42,10 +42,11 @@ const TICKS_PER_LOG: u32 = 10;
 /// Where the robot is placed at power-up: the world file's start.
 pub const START_POSE: Pose = world::START;
 
-/// What corrects the pose beyond odometry: the filter, which takes every tag sighting and
-/// learns the gyro's and the flow sensor's errors (`host-sim run --pose filter`; with the
-/// `matching` feature it also matches the depth scans against the map, `--pose slam`). The
-/// `two-tag-fix` feature flies the seed's two-tag fix instead (`--pose tags`). The
+/// What corrects the pose beyond odometry: the filter, which takes every tag sighting,
+/// learns the gyro's and the flow sensor's errors and, with the `matching` feature (on by
+/// default), matches the depth scans against the map (`host-sim run --pose slam`; without
+/// the feature `--pose filter`). The `two-tag-fix` feature flies the seed's two-tag fix
+/// instead (`--pose tags`). The
 /// telemetry's `Hello` says which, so the viewer and the emulator checks know.
 pub const LOCALISER: Localiser = if cfg!(feature = "two-tag-fix") {
     Localiser::TwoTagFix

@@ -234,7 +234,8 @@ pub struct FaultsArgs {
     #[arg(value_name = "SCENARIO", value_hint = ValueHint::FilePath,
           default_value = "host-sim/scenarios/seed-mat.toml")]
     pub scenario: PathBuf,
-    /// Which pose the mapper uses (as `run --pose`); the firmware flies `filter`.
+    /// Which pose the mapper uses (as `run --pose`): by default the filter without scan
+    /// matching (the firmware flies `slam`, the filter with it).
     #[arg(long, value_name = "MODE", default_value = "filter", value_parser = pose_mode())]
     pub pose: PoseMode,
     /// Run seeds 1 to N.

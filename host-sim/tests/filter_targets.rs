@@ -1,7 +1,7 @@
 //! The filter against issue 10's targets, on every shipped scenario and seeds 1 to 20:
 //! accuracy where the issue names it, and everywhere a 3-sigma bound the true error keeps
-//! inside without being lazily wide; held by both `--pose filter` (what the firmware
-//! flies) and `--pose slam` (the same with scan matching). Then issue 11's targets for
+//! inside without being lazily wide; held by both `--pose filter` and `--pose slam` (the
+//! same with scan matching, what the firmware flies). Then issue 11's targets for
 //! `--pose slam`: those not met yet are `#[ignore]`d with the reason, and run with
 //! `cargo test -p host-sim --release --test filter_targets -- --ignored`.
 

@@ -258,7 +258,8 @@ fn agrees(emulated: f64, simulated: f64, tolerance: Tolerance) -> bool {
 /// firmware's run is scored by `host-sim view --truth --scenario` with the code that scores
 /// `host-sim run`, and held to the seed's bounds and to `host-sim run
 /// host-sim/scenarios/seed-mat.toml` on the same seed with the pose mode the firmware flies
-/// (its `Hello` says: `--pose filter` for the filter, `--pose tags` for the two-tag fix).
+/// (its `Hello` says: `--pose slam` for the filter with matching, the default, `--pose
+/// filter` without it, `--pose tags` for the two-tag fix).
 /// Prints each check; returns (passed, failed).
 ///
 /// The two runs do not drive quite the same path: the simulator turns until the true
@@ -465,21 +466,18 @@ const MATCHING_SECONDS_F: f64 = 15.0;
 /// Steps' worst case with the match left out of them (issue 10's target).
 const STEP_BUDGET_CYCLES: f64 = 40_000.0;
 
-/// The firmware built with the `matching` feature (within its flash budget), flying the
-/// seed mat without tags: 10 Hz kept, no overrun or reset, the stream replayed bit for bit
+/// The firmware as built by default, with the `matching` feature (within its flash
+/// budget), flying the seed mat without tags: 10 Hz kept, no overrun or reset, the stream replayed bit for bit
 /// as `slam`, a match searched on most ticks in pieces that never made a sensor's read
 /// time out or an input doubted, the step's own worst case unchanged, and the pose held as
 /// host-sim holds it (final error within 3 cm, no cell out of place).
 pub fn matching_run() -> Result<(u64, u64), String> {
     crate::firmware::run(&crate::firmware::FirmwareArgs {
         world: Some(MATCHING_WORLD.into()),
-        features: vec!["matching".into()],
         ..Default::default()
     })?;
     let f = crate::emulator_figures(&[
         MATCHING_WORLD,
-        "--features",
-        "matching",
         "--seconds",
         MATCHING_SECONDS,
         "--seed",
