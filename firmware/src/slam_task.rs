@@ -356,8 +356,13 @@ pub async fn slam_task(
 
         let framing = Instant::now();
         let sensor_health = HEALTH.sensor_health();
+        // The telemetry stamps the tick with the moment its pose is of: the odometry's,
+        // a few milliseconds before the wake-up, which in a turn is a visible angle.
+        let pose_ms = u32::try_from(odometry_at.as_millis())
+            .unwrap_or(u32::MAX)
+            .saturating_add(run_offset_ms);
         streamer.tick(
-            time_ms,
+            pose_ms,
             &frame,
             &report,
             slam.tag_counters(),

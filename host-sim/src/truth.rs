@@ -108,27 +108,50 @@ pub fn parse_truth(text: &str) -> Result<Vec<TruthSample>, TruthError> {
 /// How far a truth sample may be from a tick's time and still be its truth: half a tick,
 /// milliseconds.
 ///
-/// The firmware stamps a `Tick` with the millisecond its step started, rounded down, and
-/// the harness samples the truth as that step starts, so a tick's own sample is under a
-/// millisecond away. Its neighbours' are a whole tick away (a pose up to 15 mm and 3
-/// degrees off on the seed route), so half a tick never takes a neighbour's for it: a
-/// tick whose own sample is missing gets none, and is counted rather than scored.
+/// The firmware stamps a `Tick` with the millisecond its pose is of (its newest gyro
+/// sample's, a few milliseconds before the step starts), rounded down, and the harness
+/// samples the truth as each step starts, so a tick's own sample is a few milliseconds
+/// away. Its neighbours' are a whole tick away (a pose up to 15 mm and 3 degrees off on
+/// the seed route), so half a tick never takes a neighbour's for it: a tick whose own
+/// sample is missing gets none, and is counted rather than scored.
 pub const PAIRING_TOLERANCE_MS: f64 = TICK_S * 1000.0 / 2.0;
 
-/// The sample nearest `time_ms` if it is within [`PAIRING_TOLERANCE_MS`]; `samples` in
-/// time order, as [`parse_truth`] gives them.
-pub fn truth_at(samples: &[TruthSample], time_ms: u32) -> Option<&TruthSample> {
+/// The true pose at `time_ms`: linear between the two samples around it when they are
+/// consecutive steps' (at most a tick and a half apart), else the nearest sample; `None`
+/// unless a sample lies within [`PAIRING_TOLERANCE_MS`]. `samples` in time order, as
+/// [`parse_truth`] gives them. In a turn at 31.5 degrees a second the pose's 4 ms before
+/// its step's sample is 0.13 degrees, more than a filter sure of its heading allows.
+pub fn truth_at(samples: &[TruthSample], time_ms: u32) -> Option<TruthSample> {
     let t_ms = f64::from(time_ms);
     let later = samples.partition_point(|s| s.t_s * 1000.0 < t_ms);
-    let candidates = [later.checked_sub(1), Some(later)];
-    candidates
+    let (before, after) = (
+        later.checked_sub(1).and_then(|i| samples.get(i)),
+        samples.get(later),
+    );
+    let gap = |s: &TruthSample| (s.t_s * 1000.0 - t_ms).abs();
+    let nearest = [before, after]
         .into_iter()
         .flatten()
-        .filter_map(|i| samples.get(i))
-        .map(|s| (s, (s.t_s * 1000.0 - t_ms).abs()))
-        .filter(|(_, gap)| *gap < PAIRING_TOLERANCE_MS)
-        .min_by(|a, b| a.1.total_cmp(&b.1))
-        .map(|(s, _)| s)
+        .filter(|s| gap(s) < PAIRING_TOLERANCE_MS)
+        .min_by(|a, b| gap(a).total_cmp(&gap(b)))?;
+    match (before, after) {
+        (Some(a), Some(b)) if (b.t_s - a.t_s) * 1000.0 <= 1.5 * TICK_S * 1000.0 => {
+            let span = (b.t_s - a.t_s) * 1000.0;
+            let f = if span > 0.0 {
+                (t_ms - a.t_s * 1000.0) / span
+            } else {
+                0.0
+            };
+            let between = |x: f64, y: f64| x + (y - x) * f;
+            Some(TruthSample {
+                t_s: t_ms / 1000.0,
+                x_mm: between(a.x_mm, b.x_mm),
+                y_mm: between(a.y_mm, b.y_mm),
+                heading_deg: between(a.heading_deg, b.heading_deg),
+            })
+        }
+        _ => Some(*nearest),
+    }
 }
 
 /// The time of the last sample before the robot first moved, seconds; `None` if it never
@@ -216,11 +239,14 @@ mod tests {
             sample(0.2004, 2.0),
             sample(0.30000000000000004, 3.0),
         ];
-        assert_eq!(truth_at(&samples, 100).map(|s| s.heading_deg), Some(1.0));
-        assert_eq!(truth_at(&samples, 200).map(|s| s.heading_deg), Some(2.0));
-        assert_eq!(truth_at(&samples, 300).map(|s| s.heading_deg), Some(3.0));
-        // Nearest wins even from the far side.
-        assert_eq!(truth_at(&samples, 199).map(|s| s.heading_deg), Some(2.0));
+        let heading = |t: u32| truth_at(&samples, t).map(|s| s.heading_deg);
+        let near = |h: Option<f64>, want: f64| h.is_some_and(|h| (h - want).abs() < 0.01);
+        assert!(near(heading(100), 1.0), "{:?}", heading(100));
+        assert!(near(heading(200), 2.0), "{:?}", heading(200));
+        assert!(near(heading(300), 3.0), "{:?}", heading(300));
+        // Between two steps' samples, the truth moves linearly from one to the other.
+        assert!(near(heading(196), 1.96), "{:?}", heading(196));
+        assert!(near(heading(250), 2.5), "{:?}", heading(250));
         assert_eq!(truth_at(&samples, 0), None);
         assert_eq!(truth_at(&samples, 400), None);
         assert_eq!(truth_at(&[], 100), None);

@@ -125,7 +125,7 @@ impl Feed<'_> {
         if let (Message::Tick(t), Some(truth)) = (message, self.truth) {
             if let Some(sample) = truth_at(truth, t.time_ms) {
                 for sink in self.sinks.iter_mut() {
-                    sink.truth(sample);
+                    sink.truth(&sample);
                 }
             }
         }

@@ -125,7 +125,8 @@ impl Hello {
 pub struct Tick {
     /// Steps run, this one included (the core's `counters.ticks`).
     pub tick: u32,
-    /// Time of the tick since the run started, milliseconds (wraps after 49 days); a
+    /// Time of the tick since the run started, milliseconds (wraps after 49 days): the
+    /// moment the pose is of (on the robot its odometry's, its newest gyro sample's). A
     /// reset the robot resumed from carries it on.
     pub time_ms: u32,
     /// Pose x, micrometres.

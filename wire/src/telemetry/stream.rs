@@ -97,7 +97,7 @@ impl Streamer {
     /// (`frame`, what `step` was given) when the schedule sends them, the `Tick`, the
     /// [`FilterState`] when the report has an estimate (with `tags`, the core's
     /// `tag_counters()`), the map chunks, and `health` when due. `time_ms` is the tick's
-    /// time since start.
+    /// time since start, the moment its pose is of.
     #[allow(clippy::too_many_arguments)]
     pub fn tick<const W: usize, const H: usize>(
         &mut self,
