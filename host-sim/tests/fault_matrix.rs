@@ -64,6 +64,25 @@ fn every_case_but_the_listed_keeps_the_map_and_recovers() {
     assert_eq!(missed, MISSED, "\n{}", table(&cases));
 }
 
+/// The same matrix under `slam`, what the firmware flies (the filter with the scan
+/// matcher): the same cases miss, and none panics.
+#[test]
+fn under_slam_the_same_cases_miss() {
+    let scenario = world::shipped::scenario("seed-mat.toml");
+    let seeds: Vec<u64> = (1..=20).collect();
+    let cases = run_matrix(&scenario, PoseMode::Slam, &seeds, WINDOW, None).expect("matrix");
+    assert_eq!(cases.len(), 24, "4 sensors x 6 kinds");
+    for c in &cases {
+        assert_eq!((c.seeds, c.panics), (20, 0), "{}", table(&cases));
+    }
+    let missed: Vec<&str> = cases
+        .iter()
+        .filter(|c| !c.meets_targets())
+        .map(|c| c.case.as_str())
+        .collect();
+    assert_eq!(missed, MISSED, "\n{}", table(&cases));
+}
+
 /// The matrix at other moments of the route, where the tags are in view, each with the
 /// cases that miss a target there today. The 5 s window falls in the first turn, facing
 /// away from both tags, so it cannot show what a lying camera does to the pose; these
