@@ -147,7 +147,9 @@ fn a_correlated_match_leaves_the_position_no_surer_than_the_map() {
     let sixteenths = |mm: i64| mm * 16;
     let radians_q16 = |mdeg: i64| mdeg * 65_536 * 314_159 / (180_000 * 100_000);
     let map = MapUncertainty {
-        position: sixteenths(250) * sixteenths(250),
+        xx: sixteenths(250) * sixteenths(250),
+        yy: sixteenths(250) * sixteenths(250),
+        xy: 0,
         heading: radians_q16(100) * radians_q16(100),
     };
     let (sx, sh) = (5_000i64, 500i64);
@@ -165,9 +167,65 @@ fn a_correlated_match_leaves_the_position_no_surer_than_the_map() {
         .expect("within the gate");
     let xx = filter.covariance().get(State::X, State::X);
     assert!(
-        xx >= map.position * 99 / 100,
+        xx >= map.xx * 99 / 100,
         "x deviation {:.0} mm, the map's {:.0} mm",
         (xx as f64).sqrt() / 16.0,
-        (map.position as f64).sqrt() / 16.0
+        (map.xx as f64).sqrt() / 16.0
     );
+}
+
+/// A map drawn down a corridor while unsure along it (x, 25 cm) but sure across it (y,
+/// 2 mm): a match across the corridor may leave the filter as sure across it as the map
+/// is, not as unsure as the map is along it; a match along it is held at the map's 25 cm.
+/// With the correlation, a map unsure along the diagonal x = y and sure across it floors
+/// a match measured along and across that diagonal the same way. (The floor holds along
+/// each measurement's own row: two rows along x and y each keep the map's variance
+/// along x and y, not the diagonal's.)
+#[test]
+fn the_map_floors_each_direction_by_its_own_uncertainty() {
+    let sixteenths = |mm: i64| mm * 16;
+    let corridor = MapUncertainty {
+        xx: sixteenths(250) * sixteenths(250),
+        yy: sixteenths(2) * sixteenths(2),
+        xy: 0,
+        heading: 0,
+    };
+    let diagonal = MapUncertainty {
+        xx: sixteenths(250) * sixteenths(250) / 2,
+        yy: sixteenths(250) * sixteenths(250) / 2,
+        xy: sixteenths(250) * sixteenths(250) / 2,
+        heading: 0,
+    };
+    // The filter 30 cm unsure; a match 5 mm sure along x and y alike.
+    let apply = |map: &MapUncertainty, wide: Angle| {
+        let mut filter = Estimator::new(EstimatorConfig {
+            initial_position_mm: 300,
+            ..EstimatorConfig::SEED
+        });
+        let mut m = hand_made(2_000, 2_000, 0, (5_000, 5_000, 300), Pins::PositionOnly);
+        m.wide = wide;
+        filter
+            .apply_match(&m, &NOISE, map)
+            .expect("within the gate");
+        let p = filter.covariance();
+        let mm = |v: i64| (v as f64).sqrt() / 16.0;
+        let (xx, yy, xy) = (
+            p.get(State::X, State::X),
+            p.get(State::Y, State::Y),
+            p.get(State::X, State::Y),
+        );
+        // Along (1, 1) / sqrt 2 and across it.
+        (
+            mm(xx),
+            mm(yy),
+            mm((xx + yy + 2 * xy) / 2),
+            mm((xx + yy - 2 * xy) / 2),
+        )
+    };
+    let (x, y, _, _) = apply(&corridor, -Angle::QUARTER_TURN);
+    assert!(x >= 0.99 * 250.0, "along the corridor {x:.1} mm");
+    assert!(y < 10.0, "across the corridor {y:.1} mm");
+    let (_, _, along, across) = apply(&diagonal, Angle::from_millidegrees(45_000));
+    assert!(along >= 0.99 * 250.0, "along the diagonal {along:.1} mm");
+    assert!(across < 10.0, "across the diagonal {across:.1} mm");
 }

@@ -53,20 +53,45 @@ impl MatchNoise {
         floor_heading_mdeg: 300,
     };
 
-    /// The floors as variances in the filter's units, by component, the map's own
-    /// uncertainty added.
-    fn floors(&self, map: &MapUncertainty) -> [i64; 3] {
+    /// The floors as a covariance over x, y and heading in the filter's units: the map's
+    /// own, with this noise's floors added to the variances.
+    fn floors(&self, map: &MapUncertainty) -> Floors {
         let position = units::position_from_um(units::position_from_um(square(i64::from(
             self.floor_position_um,
         ))));
         let heading = units::heading_from_mdeg(units::heading_from_mdeg(square(i64::from(
             self.floor_heading_mdeg,
         ))));
-        [
-            position.saturating_add(map.position),
-            position.saturating_add(map.position),
-            heading.saturating_add(map.heading),
-        ]
+        Floors {
+            xx: position.saturating_add(map.xx),
+            yy: position.saturating_add(map.yy),
+            xy: map.xy,
+            heading: heading.saturating_add(map.heading),
+        }
+    }
+}
+
+/// The least covariance matches may leave the filter with ([`MatchNoise::floors`]):
+/// position over x and y with their correlation, and the heading, in the filter's units.
+#[derive(Clone, Copy)]
+struct Floors {
+    xx: i64,
+    yy: i64,
+    xy: i64,
+    heading: i64,
+}
+
+impl Floors {
+    /// The variance along a row `e` over x, y and heading (Q16 entries within 1.0).
+    fn along(&self, e: [i32; 3]) -> i64 {
+        let [x, y, h] = e.map(i64::from);
+        let terms = [
+            mul_shift(x * x, self.xx, 32),
+            mul_shift(2 * x * y, self.xy, 32),
+            mul_shift(y * y, self.yy, 32),
+            mul_shift(h * h, self.heading, 32),
+        ];
+        terms.iter().fold(0i64, |s, &t| s.saturating_add(t)).max(0)
     }
 }
 
@@ -78,8 +103,13 @@ impl MatchNoise {
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct MapUncertainty {
-    /// Position variance, the filter's units (the larger of x and y).
-    pub position: i64,
+    /// Variance along x, the filter's units.
+    pub xx: i64,
+    /// Variance along y, the filter's units.
+    pub yy: i64,
+    /// Covariance of x and y, the filter's units: a map drawn while unsure along a
+    /// corridor is unsure along it, not across.
+    pub xy: i64,
     /// Heading variance, the filter's units.
     pub heading: i64,
 }
@@ -91,11 +121,11 @@ impl MapUncertainty {
     /// Follows one scan written into the map while the filter is as `estimator` says.
     pub fn wrote(&mut self, estimator: &Estimator) {
         let p = estimator.covariance();
-        let position = p.get(State::X, State::X).max(p.get(State::Y, State::Y));
-        let heading = p.get(State::Heading, State::Heading);
         let follow = |m: &mut i64, v: i64| *m += (v - *m) >> Self::MEMORY_SHIFT;
-        follow(&mut self.position, position);
-        follow(&mut self.heading, heading);
+        follow(&mut self.xx, p.get(State::X, State::X));
+        follow(&mut self.yy, p.get(State::Y, State::Y));
+        follow(&mut self.xy, p.get(State::X, State::Y));
+        follow(&mut self.heading, p.get(State::Heading, State::Heading));
     }
 }
 
@@ -255,7 +285,7 @@ impl Components {
     /// The chosen components as independent scalar measurements (the match's covariance
     /// factored as `L D L^T`, each measurement less what the earlier ones explain), in
     /// `order`. `None` if a variance left is not positive.
-    fn whitened(&self, order: &[Component], floors: &[i64; 3]) -> Option<([Scalar; 3], usize)> {
+    fn whitened(&self, order: &[Component], floors: &Floors) -> Option<([Scalar; 3], usize)> {
         let n = order.len().min(3);
         let idx = |k: usize| order.get(k).map_or(0, |&c| c as usize);
         let c = |i: usize, j: usize| self.c[idx(i)][idx(j)];
@@ -311,19 +341,10 @@ impl Components {
                 row.get(k)
                     .map_or(0, |&v| v.clamp(-(1 << 16), 1 << 16) as i32)
             };
-            // The floor along this row: the map's own uncertainty (the position's along x
-            // and along y alike, the heading's) seen along it. A measurement conditioned
-            // on an earlier one mixes position and heading, and must not leave the filter
-            // surer of the position in it than the map is.
-            let (position, heading) = (
-                floors[Component::Across as usize],
-                floors[Component::Heading as usize],
-            );
-            let floor = [position, position, heading]
-                .iter()
-                .enumerate()
-                .map(|(k, &f)| mul_shift(square(i64::from(e(k))), f, 32))
-                .fold(0i64, i64::saturating_add);
+            // The floor along this row: the map's own uncertainty seen along it. A
+            // measurement conditioned on an earlier one mixes position and heading, and
+            // must not leave the filter surer of the position in it than the map is.
+            let floor = floors.along([e(0), e(1), e(2)]);
             out[i] = Scalar {
                 h: [(State::X, e(0)), (State::Y, e(1)), (State::Heading, e(2))],
                 nu,
