@@ -290,6 +290,25 @@ fn agrees(emulated: f64, simulated: f64, tolerance: Tolerance) -> bool {
 /// 85 % allows one such walk on the route, not a bound that is routinely too tight.
 pub const EMULATED_INSIDE_PCT: f64 = 85.0;
 
+/// The true heading inside the filter's 3-sigma heading bound on [`EMULATED_INSIDE_PCT`]
+/// of the emulated run's ticks and 90 % of host-sim's, as the position. The telemetry
+/// stamps each tick with its pose's own moment, so a turn's heading is scored against
+/// the truth of that moment (`host_sim::truth::truth_at`). `ve` and `se` are the emulated
+/// and the simulated run's `estimator` figures.
+fn heading_inside_check(ve: &serde_json::Value, se: &serde_json::Value) -> (String, bool) {
+    let num = |x: &serde_json::Value| x.as_f64().unwrap_or(f64::NAN);
+    let (e, s) = (
+        num(&ve["inside_3sigma_heading_pct"]),
+        num(&se["inside_3sigma_heading_pct"]),
+    );
+    (
+        format!(
+            "the filter's 3-sigma bound holds the true heading: emulator {e:.1} % of ticks (>= {EMULATED_INSIDE_PCT} %), host-sim {s:.1} % (>= 90 %)"
+        ),
+        e >= EMULATED_INSIDE_PCT && s >= 90.0,
+    )
+}
+
 /// `host-sim run`'s figures for `scenario` (relative to the workspace) on the route's seed,
 /// in the pose mode `pose` (`--pose`'s name; the view's `localiser` names the one the
 /// firmware flies).
@@ -389,6 +408,7 @@ pub fn route_run() -> Result<(u64, u64), String> {
                 num(&ve["inside_3sigma_pct"]) >= EMULATED_INSIDE_PCT
                     && num(&se["inside_3sigma_pct"]) >= 90.0,
             ),
+            heading_inside_check(ve, se),
             compare(
                 "tag sightings used",
                 num(&ve["tags"]["used"]),
@@ -606,6 +626,7 @@ pub fn world_checks(
                 num(&ve["inside_3sigma_pct"]) >= EMULATED_INSIDE_PCT
                     && num(&se["inside_3sigma_pct"]) >= 90.0,
             ),
+            heading_inside_check(ve, se),
             (
                 format!("tag sightings used agree within ±25 %: emulator {used_e}, host-sim {used_s}"),
                 agrees(used_e, used_s, Tolerance::Relative(0.25)),
@@ -800,6 +821,15 @@ INFO motion: route done, motors coasting\n";
         assert_eq!(flown(&view("tags")), Ok(("tags", false)));
         assert!(flown(&view("?")).unwrap_err().contains("\"?\""));
         assert!(flown(&serde_json::json!({})).is_err());
+    }
+
+    #[test]
+    fn the_heading_check_holds_both_runs_and_a_missing_share_fails() {
+        let share = |pct: f64| serde_json::json!({ "inside_3sigma_heading_pct": pct });
+        assert!(heading_inside_check(&share(98.5), &share(100.0)).1);
+        assert!(!heading_inside_check(&share(80.7), &share(100.0)).1);
+        assert!(!heading_inside_check(&share(98.5), &share(89.9)).1);
+        assert!(!heading_inside_check(&serde_json::json!({}), &share(100.0)).1);
     }
 
     #[test]
