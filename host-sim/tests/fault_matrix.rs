@@ -10,10 +10,27 @@ const WINDOW: Window = Window {
     duration_s: 3.0,
 };
 
-fn matrix() -> Vec<CaseFigures> {
+fn matrix(pose: PoseMode) -> Vec<CaseFigures> {
     let scenario = world::shipped::scenario("seed-mat.toml");
     let seeds: Vec<u64> = (1..=20).collect();
-    run_matrix(&scenario, PoseMode::Filter, &seeds, WINDOW, None).expect("matrix")
+    run_matrix(&scenario, pose, &seeds, WINDOW, None).expect("matrix")
+}
+
+/// The cases that miss a target, in the matrix's order.
+fn missed(cases: &[CaseFigures]) -> Vec<&str> {
+    cases
+        .iter()
+        .filter(|c| !c.meets_targets())
+        .map(|c| c.case.as_str())
+        .collect()
+}
+
+/// All 24 cases ran on every one of the 20 seeds, and none panicked.
+fn assert_every_case_ran(cases: &[CaseFigures]) {
+    assert_eq!(cases.len(), 24, "4 sensors x 6 kinds");
+    for c in cases {
+        assert_eq!((c.seeds, c.panics), (20, 0), "{}", table(cases));
+    }
 }
 
 /// The cases that miss a target today, each with why: a plausible but false reading
@@ -27,11 +44,7 @@ const MISSED: [&str; 2] = [
 
 #[test]
 fn every_case_runs_on_every_seed_without_a_panic() {
-    let cases = matrix();
-    assert_eq!(cases.len(), 24, "4 sensors x 6 kinds");
-    for c in &cases {
-        assert_eq!((c.seeds, c.panics), (20, 0), "{}", table(&cases));
-    }
+    assert_every_case_ran(&matrix(PoseMode::Filter));
 }
 
 #[test]
@@ -54,33 +67,18 @@ fn a_lost_gyro_holds_the_route_and_keeps_the_map() {
 
 #[test]
 fn every_case_but_the_listed_keeps_the_map_and_recovers() {
-    let cases = matrix();
-    let missed: Vec<&str> = cases
-        .iter()
-        .filter(|c| !c.meets_targets())
-        .map(|c| c.case.as_str())
-        .collect();
+    let cases = matrix(PoseMode::Filter);
     // A listed case that starts to pass is taken off the list.
-    assert_eq!(missed, MISSED, "\n{}", table(&cases));
+    assert_eq!(missed(&cases), MISSED, "\n{}", table(&cases));
 }
 
 /// The same matrix under `slam`, what the firmware flies (the filter with the scan
 /// matcher): the same cases miss, and none panics.
 #[test]
 fn under_slam_the_same_cases_miss() {
-    let scenario = world::shipped::scenario("seed-mat.toml");
-    let seeds: Vec<u64> = (1..=20).collect();
-    let cases = run_matrix(&scenario, PoseMode::Slam, &seeds, WINDOW, None).expect("matrix");
-    assert_eq!(cases.len(), 24, "4 sensors x 6 kinds");
-    for c in &cases {
-        assert_eq!((c.seeds, c.panics), (20, 0), "{}", table(&cases));
-    }
-    let missed: Vec<&str> = cases
-        .iter()
-        .filter(|c| !c.meets_targets())
-        .map(|c| c.case.as_str())
-        .collect();
-    assert_eq!(missed, MISSED, "\n{}", table(&cases));
+    let cases = matrix(PoseMode::Slam);
+    assert_every_case_ran(&cases);
+    assert_eq!(missed(&cases), MISSED, "\n{}", table(&cases));
 }
 
 /// The matrix at other moments of the route, where the tags are in view, each with the
@@ -131,13 +129,8 @@ fn the_matrix_at_other_moments_misses_only_the_listed_cases() {
         let cases = run_matrix(&scenario, PoseMode::Filter, &seeds, window, None).expect("matrix");
         assert_eq!(cases.len(), 24, "4 sensors x 6 kinds");
         assert!(cases.iter().all(|c| c.panics == 0), "{}", table(&cases));
-        let missed: Vec<&str> = cases
-            .iter()
-            .filter(|c| !c.meets_targets())
-            .map(|c| c.case.as_str())
-            .collect();
         assert_eq!(
-            missed,
+            missed(&cases),
             listed,
             "from {start_s} s ({moment}):\n{}",
             table(&cases)
