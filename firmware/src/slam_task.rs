@@ -46,8 +46,8 @@ pub const START_POSE: Pose = world::START;
 /// learns the gyro's and the flow sensor's errors and, with the `matching` feature (on by
 /// default), matches the depth scans against the map (`host-sim run --pose slam`; without
 /// the feature `--pose filter`). The `two-tag-fix` feature flies the seed's two-tag fix
-/// instead (`--pose tags`). The
-/// telemetry's `Hello` says which, so the viewer and the emulator checks know.
+/// instead (`--pose tags`). The telemetry's `Hello` says which, so the viewer and the
+/// emulator checks know.
 pub const LOCALISER: Localiser = if cfg!(feature = "two-tag-fix") {
     Localiser::TwoTagFix
 } else {

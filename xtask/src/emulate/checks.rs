@@ -290,20 +290,22 @@ fn agrees(emulated: f64, simulated: f64, tolerance: Tolerance) -> bool {
 /// 85 % allows one such walk on the route, not a bound that is routinely too tight.
 pub const EMULATED_INSIDE_PCT: f64 = 85.0;
 
-/// The true heading inside the filter's 3-sigma heading bound on [`EMULATED_INSIDE_PCT`]
-/// of the emulated run's ticks and 90 % of host-sim's, as the position. The telemetry
-/// stamps each tick with its pose's own moment, so a turn's heading is scored against
-/// the truth of that moment (`host_sim::truth::truth_at`). `ve` and `se` are the emulated
-/// and the simulated run's `estimator` figures.
-fn heading_inside_check(ve: &serde_json::Value, se: &serde_json::Value) -> (String, bool) {
+/// The true error (`what`: "error", or "heading") inside the filter's 3-sigma bound, the
+/// share of ticks under `key` in each run's `estimator` figures (`ve` emulated, `se`
+/// simulated): at least [`EMULATED_INSIDE_PCT`] of the emulated run's and 90 % of
+/// host-sim's. The telemetry stamps each tick with its pose's own moment, so a turn's
+/// heading is scored against the truth of that moment (`host_sim::truth::truth_at`).
+fn inside_check(
+    ve: &serde_json::Value,
+    se: &serde_json::Value,
+    what: &str,
+    key: &str,
+) -> (String, bool) {
     let num = |x: &serde_json::Value| x.as_f64().unwrap_or(f64::NAN);
-    let (e, s) = (
-        num(&ve["inside_3sigma_heading_pct"]),
-        num(&se["inside_3sigma_heading_pct"]),
-    );
+    let (e, s) = (num(&ve[key]), num(&se[key]));
     (
         format!(
-            "the filter's 3-sigma bound holds the true heading: emulator {e:.1} % of ticks (>= {EMULATED_INSIDE_PCT} %), host-sim {s:.1} % (>= 90 %)"
+            "the filter's 3-sigma bound holds the true {what}: emulator {e:.1} % of ticks (>= {EMULATED_INSIDE_PCT} %), host-sim {s:.1} % (>= 90 %)"
         ),
         e >= EMULATED_INSIDE_PCT && s >= 90.0,
     )
@@ -399,16 +401,8 @@ pub fn route_run() -> Result<(u64, u64), String> {
     if filter {
         let (ve, se) = (&v["estimator"], &sim["estimator"]);
         checks.extend([
-            (
-                format!(
-                    "the filter's 3-sigma bound holds the true error: emulator {:.1} % of ticks (>= {EMULATED_INSIDE_PCT} %), host-sim {:.1} % (>= 90 %)",
-                    num(&ve["inside_3sigma_pct"]),
-                    num(&se["inside_3sigma_pct"])
-                ),
-                num(&ve["inside_3sigma_pct"]) >= EMULATED_INSIDE_PCT
-                    && num(&se["inside_3sigma_pct"]) >= 90.0,
-            ),
-            heading_inside_check(ve, se),
+            inside_check(ve, se, "error", "inside_3sigma_pct"),
+            inside_check(ve, se, "heading", "inside_3sigma_heading_pct"),
             compare(
                 "tag sightings used",
                 num(&ve["tags"]["used"]),
@@ -487,10 +481,11 @@ const MATCHING_SECONDS_F: f64 = 15.0;
 const STEP_BUDGET_CYCLES: f64 = 40_000.0;
 
 /// The firmware as built by default, with the `matching` feature (within its flash
-/// budget), flying the seed mat without tags: 10 Hz kept, no overrun or reset, the stream replayed bit for bit
-/// as `slam`, a match searched on most ticks in pieces that never made a sensor's read
-/// time out or an input doubted, the step's own worst case unchanged, and the pose held as
-/// host-sim holds it (final error within 3 cm, no cell out of place).
+/// budget), flying the seed mat without tags: 10 Hz kept, no overrun or reset, the stream
+/// replayed bit for bit as `slam`, a match searched on most ticks in pieces that never
+/// made a sensor's read time out or an input doubted, the step's own worst case
+/// unchanged, and the pose held as host-sim holds it (final error within 3 cm, no cell
+/// out of place).
 pub fn matching_run() -> Result<(u64, u64), String> {
     crate::firmware::run(&crate::firmware::FirmwareArgs {
         world: Some(MATCHING_WORLD.into()),
@@ -617,18 +612,12 @@ pub fn world_checks(
         let (ve, se) = (&v["estimator"], &sim["estimator"]);
         let (used_e, used_s) = (num(&ve["tags"]["used"]), num(&se["tags"]["used"]));
         checks.extend([
+            inside_check(ve, se, "error", "inside_3sigma_pct"),
+            inside_check(ve, se, "heading", "inside_3sigma_heading_pct"),
             (
                 format!(
-                    "the filter's 3-sigma bound holds the true error: emulator {:.1} % of ticks (>= {EMULATED_INSIDE_PCT} %), host-sim {:.1} % (>= 90 %)",
-                    num(&ve["inside_3sigma_pct"]),
-                    num(&se["inside_3sigma_pct"])
+                    "tag sightings used agree within ±25 %: emulator {used_e}, host-sim {used_s}"
                 ),
-                num(&ve["inside_3sigma_pct"]) >= EMULATED_INSIDE_PCT
-                    && num(&se["inside_3sigma_pct"]) >= 90.0,
-            ),
-            heading_inside_check(ve, se),
-            (
-                format!("tag sightings used agree within ±25 %: emulator {used_e}, host-sim {used_s}"),
                 agrees(used_e, used_s, Tolerance::Relative(0.25)),
             ),
         ]);
@@ -825,11 +814,14 @@ INFO motion: route done, motors coasting\n";
 
     #[test]
     fn the_heading_check_holds_both_runs_and_a_missing_share_fails() {
+        let key = "inside_3sigma_heading_pct";
         let share = |pct: f64| serde_json::json!({ "inside_3sigma_heading_pct": pct });
-        assert!(heading_inside_check(&share(98.5), &share(100.0)).1);
-        assert!(!heading_inside_check(&share(80.7), &share(100.0)).1);
-        assert!(!heading_inside_check(&share(98.5), &share(89.9)).1);
-        assert!(!heading_inside_check(&serde_json::json!({}), &share(100.0)).1);
+        let holds =
+            |e: &serde_json::Value, s: &serde_json::Value| inside_check(e, s, "heading", key).1;
+        assert!(holds(&share(98.5), &share(100.0)));
+        assert!(!holds(&share(80.7), &share(100.0)));
+        assert!(!holds(&share(98.5), &share(89.9)));
+        assert!(!holds(&serde_json::json!({}), &share(100.0)));
     }
 
     #[test]
