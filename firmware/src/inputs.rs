@@ -36,7 +36,8 @@ use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::blocking_mutex::Mutex;
 use embassy_sync::signal::Signal;
 use embassy_time::Instant;
-use slam_core::{DepthScan, FlowDelta, GyroRate, TagDetections};
+use portable_atomic::AtomicBool;
+use slam_core::{DepthScan, Doubt, FlowDelta, GyroRate, TagDetections};
 
 /// Flow since the tick last looked: the sum of good reads, and whether a read failed.
 #[derive(Clone, Copy, Default)]
@@ -195,6 +196,9 @@ pub struct DepthReading {
     /// When core 1 saw the sensor's data-ready flag (polled every 5 ms, so up to 5 ms
     /// after the frame ended): the SLAM tick sets the frame's `depth_age_us` from it.
     pub measured: Instant,
+    /// What the depth task made of the scan against the frames before it
+    /// (`slam_core::depth_step`): the frame's `depth_doubt`.
+    pub doubt: Option<Doubt>,
 }
 
 /// One camera picture's tags and when they reached the robot.
@@ -226,6 +230,10 @@ pub struct Inputs {
     /// Raised once by [`crate::sensors::imu`] when the gyro bias is calibrated and yaw
     /// integration has begun; [`crate::motion`] waits for it before moving.
     pub gyro_ready: Signal<CriticalSectionRawMutex, ()>,
+    /// Raised by the SLAM tick when a tag's distance agreed with a scan, taken by
+    /// [`crate::sensors::depth`]: the ranges are right, whatever the frames' steps summed
+    /// to.
+    pub depth_vouched: AtomicBool,
 }
 
 impl Inputs {
@@ -238,6 +246,7 @@ impl Inputs {
             tags: Signal::new(),
             yaw: YawIntegrator::new(),
             gyro_ready: Signal::new(),
+            depth_vouched: AtomicBool::new(false),
         }
     }
 }

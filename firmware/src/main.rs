@@ -72,7 +72,7 @@ async fn main(spawner: Spawner) {
     #[cfg(feature = "vl53l5cx")]
     {
         sensors::depth::start_core1(board.depth);
-        spawner.spawn(defmt::unwrap!(sensors::depth::depth_task(&inputs.depth)));
+        spawner.spawn(defmt::unwrap!(sensors::depth::depth_task(inputs)));
     }
     #[cfg(not(feature = "vl53l5cx"))]
     spawner.spawn(defmt::unwrap!(sensors::depth::depth_task(

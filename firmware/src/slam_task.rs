@@ -280,6 +280,7 @@ pub async fn slam_task(
             // The sensor ranges on its own 15 Hz clock: a scan is up to a frame old, and
             // the core maps it at the pose of that moment.
             frame.depth_age_us = micros(odometry_at.saturating_duration_since(reading.measured));
+            frame.depth_doubt = reading.doubt;
         }
         if let Some(picture) = inputs.tags.try_take() {
             frame.tags = picture.tags;
@@ -295,6 +296,9 @@ pub async fn slam_task(
         let slam = saved.slam();
         let report = slam.step(&frame);
         let stepped = Instant::now();
+        if slam.depth_vouched() {
+            inputs.depth_vouched.store(true, portable_atomic::Ordering::Relaxed);
+        }
         #[cfg(feature = "matching")]
         let report = {
             loop {

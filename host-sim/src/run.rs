@@ -12,9 +12,10 @@ use crate::scenario::Scenario;
 use crate::score::{map_counts, out_of_place_mask, pose_errors, real_mask, MapCounts};
 use crate::telemetry::TelemetryWriter;
 use serde::Serialize;
+use slam_core::depth_step::{DepthSteps, ZoneTurn};
 use slam_core::{
-    Decision, DriveCommand, FixOutcome, GridMap, GuardConfig, Localiser, MatchingConfig, Occupancy,
-    Pose, SensorFrame, Slam, SlamConfig, TagMap,
+    Angle, Decision, DriveCommand, FixOutcome, GridMap, GuardConfig, Localiser, MatchingConfig,
+    Occupancy, PlausibleConfig, Pose, SensorFrame, Slam, SlamConfig, TagMap,
 };
 use std::fmt;
 use std::str::FromStr;
@@ -418,6 +419,52 @@ fn run_sized_to_fit(
     }
 }
 
+/// The depth frames held to each other where they arrive ([`slam_core::depth_step`]), as
+/// the firmware's depth task holds them: each tick's scan, taken at the tick, against the
+/// gyro's integral of the frames' rates.
+struct DepthFrames {
+    steps: DepthSteps,
+    fan: ZoneTurn,
+    limits: Option<PlausibleConfig>,
+    clock_us: u32,
+    /// The gyro's integral, millidegrees times 10^6 (rate in mdps times microseconds).
+    yaw: i64,
+}
+
+impl DepthFrames {
+    fn new(config: &SlamConfig) -> DepthFrames {
+        DepthFrames {
+            steps: DepthSteps::default(),
+            fan: ZoneTurn::new(&config.depth.beam_angles),
+            limits: config.plausible,
+            clock_us: 0,
+            yaw: 0,
+        }
+    }
+
+    /// Sets `frame`'s depth doubt; a core without plausibility checks gets none.
+    fn judge(&mut self, frame: &mut SensorFrame) {
+        self.clock_us = self.clock_us.wrapping_add(frame.dt_us);
+        let rate = frame.gyro.map_or(0, |g| g.rate_mdps);
+        self.yaw = self
+            .yaw
+            .saturating_add(i64::from(rate) * i64::from(frame.dt_us));
+        let (Some(limits), Some(scan)) = (&self.limits, &frame.depth) else {
+            return;
+        };
+        let moment = self.clock_us.wrapping_sub(frame.depth_age_us);
+        let heading = Angle::from_millidegrees(self.yaw / 1_000_000);
+        frame.depth_doubt = self
+            .steps
+            .judge(scan, moment, heading, &self.fan, limits)
+            .err();
+    }
+
+    fn vouched(&mut self) {
+        self.steps.vouched();
+    }
+}
+
 fn run_sized<const W: usize, const H: usize>(
     scenario: &Scenario,
     mode: PoseMode,
@@ -461,6 +508,9 @@ fn run_sized<const W: usize, const H: usize>(
     };
     // What the motors were driven with since the last frame: before the first, nothing.
     let mut driven = Command::default();
+    // The depth frames held to each other where they arrive, as the firmware's depth task
+    // does, over the gyro's own integral.
+    let mut depth_steps = DepthFrames::new(&config);
     while let Some(command) = route.command() {
         if robot.time_s() > MAX_RUN_S {
             route_cut_at_s = Some(robot.time_s());
@@ -478,13 +528,18 @@ fn run_sized<const W: usize, const H: usize>(
             // The simulated depth sensor reads at the tick.
             depth: Some(robot.read_depth()),
             depth_age_us: 0,
+            depth_doubt: None,
             tags: robot.read_tags(),
             tags_age_us,
             external_pose: (mode == PoseMode::Truth).then(|| to_core_pose(&truth)),
             commanded: (commands == Commands::Reported).then(|| drive_command(&driven)),
         };
         injector.apply(robot.time_s(), &mut frame);
+        depth_steps.judge(&mut frame);
         let report = slam.step(&frame);
+        if slam.depth_vouched() {
+            depth_steps.vouched();
+        }
         // The guard reads what the mapper believes, never the truth.
         let mut command = command;
         if guarding == Guarding::On {

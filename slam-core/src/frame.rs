@@ -83,6 +83,9 @@ pub struct SensorFrame {
     /// turning at 30 degrees a second lands 2 degrees off; the core maps it at the pose of
     /// its moment, and counts a scan older than its pose history as stale.
     pub depth_age_us: u32,
+    /// What the depth sensor's task made of the scan against the frames before it
+    /// ([`crate::depth_step`]): `None` when they agree or nobody held it to them.
+    pub depth_doubt: Option<crate::Doubt>,
     /// Tags the camera read in its newest picture (empty when none, or stale).
     pub tags: TagDetections,
     /// How long before this tick's instant that picture was taken, in microseconds (0: at
@@ -108,6 +111,7 @@ impl SensorFrame {
             gyro: None,
             depth: None,
             depth_age_us: 0,
+            depth_doubt: None,
             tags: TagDetections::new(),
             tags_age_us: 0,
             external_pose: None,

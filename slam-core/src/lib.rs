@@ -13,6 +13,7 @@
 
 pub mod angle;
 pub mod commanded;
+pub mod depth_step;
 pub mod estimator;
 pub mod frame;
 pub mod grid;

@@ -14,11 +14,14 @@
 //! last trusted reading stands in for it. A tag that disagrees with the estimate is the
 //! estimator's gate's to refuse (`crate::estimator`); a depth range that disagrees with a
 //! tag's distance doubts the depth sensor until the two agree again
-//! ([`crate::tag_range`]).
+//! ([`crate::tag_range`]). Where each frame arrives, the frames are held to each other
+//! ([`crate::depth_step`]): every range stepping the same way at once, or a frame given
+//! again late, comes with the scan as its doubt ([`crate::SensorFrame::depth_doubt`]).
 
 use crate::commanded::{
     check_flow_commanded, check_gyro_commanded, CommandTolerance, RecentCommands,
 };
+use crate::depth_step::DepthStepConfig;
 use crate::frame::{DepthScan, DriveCommand, FlowDelta, GyroRate, BEAMS};
 use crate::tag_range::{TagRangeConfig, Witness};
 
@@ -49,6 +52,9 @@ pub struct PlausibleConfig {
     pub command: CommandTolerance,
     /// How the depth sensor's ranges are held to the tags' distances.
     pub tag_range: TagRangeConfig,
+    /// How each depth frame is held to the ones before, where it arrives
+    /// ([`crate::depth_step`]).
+    pub depth_step: DepthStepConfig,
 }
 
 impl PlausibleConfig {
@@ -67,6 +73,7 @@ impl PlausibleConfig {
         trust_after_ticks: 3,
         command: CommandTolerance::SEED,
         tag_range: TagRangeConfig::SEED,
+        depth_step: DepthStepConfig::SEED,
     };
 }
 
@@ -86,7 +93,8 @@ pub enum Doubt {
     Stuck,
     /// A value the robot or the sensor cannot produce.
     Impossible,
-    /// A change between two readings faster than the robot can make.
+    /// A change between two readings faster than the robot can make (of the depth
+    /// sensor: every range stepping the same way at once, [`crate::depth_step`]).
     Jump,
     /// Motion read while the robot was held still.
     MovedWhileHeld,
@@ -96,11 +104,14 @@ pub enum Doubt {
     /// A depth range that disagrees with the distance the camera reads to a tag in its
     /// beam ([`crate::tag_range`]); only a tag that agrees lifts it.
     DisagreesWithTag,
+    /// Depth frames that come late: a frame given again after others
+    /// ([`crate::depth_step`]); lifted when the frames fit the turn as fresh ones.
+    Late,
 }
 
 impl Doubt {
     /// Every doubt, in the order of [`Doubt::code`].
-    pub const ALL: [Doubt; 7] = [
+    pub const ALL: [Doubt; 8] = [
         Doubt::Missing,
         Doubt::Stuck,
         Doubt::Impossible,
@@ -108,9 +119,10 @@ impl Doubt {
         Doubt::MovedWhileHeld,
         Doubt::Uncommanded,
         Doubt::DisagreesWithTag,
+        Doubt::Late,
     ];
 
-    /// A small number for the wire: 1 to 7 (0 is "trusted").
+    /// A small number for the wire: 1 to 8 (0 is "trusted").
     pub fn code(self) -> u8 {
         self as u8 + 1
     }
@@ -277,24 +289,6 @@ impl<T: PartialEq + Copy> Repeats<T> {
     }
 }
 
-/// A scan's ranges as a word each, a zone with no return as [`PackedScan::NO_RETURN`]:
-/// what [`Repeats`] keeps of a scan, compared and copied in aligned words, where the
-/// scan's own halfwords take a library copy.
-#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
-struct PackedScan([u32; BEAMS]);
-
-impl PackedScan {
-    /// No 16-bit range.
-    const NO_RETURN: u32 = 1 << 16;
-
-    fn of(scan: &DepthScan) -> PackedScan {
-        PackedScan(
-            scan.ranges_mm
-                .map(|r| r.map_or(PackedScan::NO_RETURN, u32::from)),
-        )
-    }
-}
-
 /// The gyro's checks: a rate no robot turns at, a jump no robot makes, one value stuck,
 /// a turn while held.
 #[inline(never)]
@@ -367,6 +361,18 @@ pub fn check_depth(scan: &DepthScan, repeats: u8, config: &PlausibleConfig) -> R
     Ok(())
 }
 
+/// A tick's depth scan, as the checks take it.
+#[derive(Clone, Copy, Debug)]
+pub struct DepthReading<'a> {
+    /// The scan.
+    pub scan: &'a DepthScan,
+    /// What the depth sensor's task made of it against the frames before it
+    /// ([`crate::depth_step`]; [`crate::SensorFrame::depth_doubt`]).
+    pub steps: Option<Doubt>,
+    /// What the camera's tags say of it ([`crate::tag_range::witness`]).
+    pub tags: Witness,
+}
+
 /// What the checks made of a tick's odometry.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub struct Judged {
@@ -397,7 +403,8 @@ pub struct Plausibility {
     depth: Watch,
     gyro_repeats: Repeats<GyroRate>,
     flow_repeats: Repeats<FlowDelta>,
-    depth_repeats: Repeats<PackedScan>,
+    /// Whether a tag's distance agreed with the last tick's scan.
+    depth_vouched: bool,
     /// The newest trusted readings taken while the robot was not held, to stand in for
     /// the tick a doubt begins.
     moving_gyro: Option<GyroRate>,
@@ -407,6 +414,11 @@ pub struct Plausibility {
 }
 
 impl Plausibility {
+    /// Whether a tag's distance agreed with the last tick's scan: its ranges are right.
+    pub fn depth_vouched(&self) -> bool {
+        self.depth_vouched
+    }
+
     /// The trust the last tick ended with.
     pub fn trust(&self) -> Trust {
         Trust {
@@ -417,8 +429,7 @@ impl Plausibility {
     }
 
     /// Judges a tick's readings, with the command the motors were driven with as the
-    /// tick's interval ended (`None`: not known) and what the camera's tags said of the
-    /// depth scan ([`crate::tag_range::witness`]). The robot is taken as held since the
+    /// tick's interval ended (`None`: not known). The robot is taken as held since the
     /// last tick where the trust then lacked what its motion needs (turns: the gyro;
     /// drives: the flow as well). An input never heard from is not doubted for being
     /// missing: the robot waits for its sensors before it moves.
@@ -429,9 +440,8 @@ impl Plausibility {
         &mut self,
         gyro: Option<GyroRate>,
         flow: Option<FlowDelta>,
-        depth: Option<&DepthScan>,
+        depth: Option<DepthReading<'_>>,
         commanded: Option<DriveCommand>,
-        tags: Witness,
         config: &PlausibleConfig,
     ) -> Judged {
         let before = self.trust();
@@ -460,14 +470,21 @@ impl Plausibility {
             None => Err(Doubt::Missing),
         };
         self.flow.judge(flow_verdict, after);
-        if let Some(scan) = depth {
-            let repeats = self.depth_repeats.count(PackedScan::of(scan));
-            let verdict = check_depth(scan, repeats, config).and(match tags {
+        self.depth_vouched = depth.is_some_and(|d| d.tags == Witness::Agrees);
+        if let Some(DepthReading { scan, steps, tags }) = depth {
+            // A repeated frame is the depth task's to count (`steps`): here only the
+            // ranges themselves.
+            let steps = steps.map_or(Ok(()), Err);
+            let verdict = check_depth(scan, 0, config).and(steps).and(match tags {
                 Witness::Disagrees => Err(Doubt::DisagreesWithTag),
                 Witness::Agrees | Witness::Silent => Ok(()),
             });
             // A sensor doubted for what a tag showed is trusted again only on tags'
-            // word: a frame no tag checks says nothing of its ranges.
+            // word, whatever else doubted it first: a frame no tag checks says nothing
+            // of its ranges.
+            if tags == Witness::Disagrees {
+                self.depth.doubt = Some(Doubt::DisagreesWithTag);
+            }
             let unheard = verdict.is_ok()
                 && tags == Witness::Silent
                 && self.depth.doubt == Some(Doubt::DisagreesWithTag);
@@ -566,34 +583,6 @@ mod tests {
     }
 
     #[test]
-    fn packed_scans_repeat_as_the_scans() {
-        let scans = [
-            [None; BEAMS],
-            [None; BEAMS],
-            [Some(u16::MAX); BEAMS],
-            [Some(u16::MAX); BEAMS],
-            [Some(0); BEAMS],
-            [Some(0); BEAMS],
-            [Some(0); BEAMS],
-            [None, Some(0), None, None, None, None, None, None],
-            [None; BEAMS],
-            [None, None, None, None, None, None, None, Some(1_000)],
-            [None, None, None, None, None, None, None, Some(1_000)],
-        ];
-        let (mut whole, mut packed) = (Repeats::default(), Repeats::default());
-        let counts: std::vec::Vec<_> = scans
-            .iter()
-            .map(|&ranges_mm| {
-                let scan = DepthScan { ranges_mm };
-                let n = packed.count(PackedScan::of(&scan));
-                assert_eq!(whole.push(scan).1, n);
-                n
-            })
-            .collect();
-        assert_eq!(counts, [0, 1, 0, 1, 0, 1, 2, 0, 0, 0, 1]);
-    }
-
-    #[test]
     fn a_turn_read_while_held_is_doubted() {
         assert_eq!(check_gyro(rate(1_500), Some(rate(0)), 0, true, &C), Ok(()));
         assert_eq!(
@@ -663,9 +652,8 @@ mod tests {
     #[test]
     fn trust_comes_back_after_enough_good_readings_in_a_row() {
         let mut p = Plausibility::default();
-        let tick = |p: &mut Plausibility, g: Option<i32>| {
-            p.judge(g.map(rate), None, None, None, Witness::Silent, &C)
-        };
+        let tick =
+            |p: &mut Plausibility, g: Option<i32>| p.judge(g.map(rate), None, None, None, &C);
         // Never heard: not doubted, nothing known.
         let first = tick(&mut p, None);
         assert_eq!((first.trust, first.gyro), (Trust::default(), Known::Lost));
@@ -696,16 +684,8 @@ mod tests {
     #[test]
     fn a_doubted_flow_holds_drives_not_turns() {
         let mut p = Plausibility::default();
-        let mut not_turning_with_flow = |forward: i32| {
-            p.judge(
-                Some(rate(0)),
-                Some(flow(forward, 0)),
-                None,
-                None,
-                Witness::Silent,
-                &C,
-            )
-        };
+        let mut not_turning_with_flow =
+            |forward: i32| p.judge(Some(rate(0)), Some(flow(forward, 0)), None, None, &C);
         not_turning_with_flow(86);
         let garbage = not_turning_with_flow(9_000);
         assert_eq!(garbage.trust.flow, Some(Doubt::Impossible));

@@ -12,7 +12,7 @@ use crate::matcher::{Match, Matcher, MatcherConfig};
 #[cfg(feature = "matching")]
 use crate::matcher::{MatchRefusal, Sweep, SWEEP_TICKS};
 use crate::odometry::{self, OdometryConfig};
-use crate::plausible::{Judged, Known, Plausibility, PlausibleConfig, Trust};
+use crate::plausible::{DepthReading, Judged, Known, Plausibility, PlausibleConfig, Trust};
 use crate::pose::{mul_q16, Pose, RigidMotion};
 use crate::tag_range::Witness;
 #[cfg(feature = "tag-range")]
@@ -392,6 +392,13 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         self.map.limit_to(columns, rows);
     }
 
+    /// Whether a tag's distance agreed with the last step's scan: the depth sensor's
+    /// ranges are right, so whatever its frames' steps summed to is forgotten
+    /// ([`crate::depth_step::DepthSteps::vouched`]).
+    pub fn depth_vouched(&self) -> bool {
+        self.plausibility.depth_vouched()
+    }
+
     /// Totals since start.
     pub fn counters(&self) -> &Counters {
         &self.counters
@@ -447,14 +454,15 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         self.counters.depth_stale += stale.depth as u32;
 
         let judged = match &self.config.plausible {
-            Some(limits) => self.plausibility.judge(
-                frame.gyro,
-                frame.flow,
-                frame.depth.as_ref(),
-                frame.commanded,
-                self.tags_on_depth(frame, limits),
-                limits,
-            ),
+            Some(limits) => {
+                let depth = frame.depth.as_ref().map(|scan| DepthReading {
+                    scan,
+                    steps: frame.depth_doubt,
+                    tags: self.tags_on_depth(frame, limits),
+                });
+                self.plausibility
+                    .judge(frame.gyro, frame.flow, depth, frame.commanded, limits)
+            }
             None => Judged::believing(frame.gyro, frame.flow),
         };
         let trust = judged.trust;

@@ -22,8 +22,10 @@
 //!   started again. The emulator's fault run (`cargo xtask test`) exercises all of this
 //!   with the sensor NACKing for 3 s.
 //! - core 0 (`depth_task`): waits for each frame with a timeout, reduces it to the core's
-//!   8 beams with `drivers::depth::reduce` (middle rows, nearest valid zone per column) and
-//!   publishes the scan. No frame within `FRAME_TIMEOUT` once ranging has begun counts a
+//!   8 beams with `drivers::depth::reduce` (middle rows, nearest valid zone per column),
+//!   holds it to the frames before over the gyro's own integral (`slam_core::depth_step`:
+//!   every range stepping together, a frame given again late) and publishes the scan with
+//!   that verdict. No frame within `FRAME_TIMEOUT` once ranging has begun counts a
 //!   `depth_timeout` (this also catches a core 1 stuck in a blocking transfer); the depth
 //!   input is then stale until frames return.
 //!
@@ -35,6 +37,7 @@
 use embassy_rp::i2c;
 
 use crate::board::{DepthSensorPins, DEPTH_I2C_HZ};
+#[cfg(not(feature = "vl53l5cx"))]
 use crate::inputs::DepthInbox;
 #[cfg(feature = "vl53l5cx")]
 use crate::inputs::DepthReading;
@@ -55,11 +58,14 @@ mod ranging {
     use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
     use embassy_sync::signal::Signal;
     use embassy_time::{with_timeout, Delay, Duration, Instant, Timer};
-    use slam_core::DepthScan;
+    use portable_atomic::Ordering;
+    use slam_core::depth_step::{DepthSteps, ZoneTurn};
+    use slam_core::{Angle, DepthScan};
     use static_cell::StaticCell;
     use vl53l5cx_uld::{RangingMode, Resolution, Vl53l5cx};
 
-    use super::{bus_config, DepthInbox, DepthReading, DepthSensorPins};
+    use super::{bus_config, DepthReading, DepthSensorPins};
+    use crate::inputs::Inputs;
     use crate::health::HEALTH;
     use crate::sensors::supervise::{Pace, Read, StartFailure, Supervised, Supervisor};
 
@@ -209,20 +215,36 @@ mod ranging {
         }
     }
 
-    /// Core 0: turns each frame from core 1 into a scan for the SLAM tick.
+    /// Core 0: turns each frame from core 1 into a scan for the SLAM tick, held to the
+    /// frames before it.
     #[embassy_executor::task]
-    pub async fn depth_task(scans: &'static DepthInbox) -> ! {
+    pub async fn depth_task(inputs: &'static Inputs) -> ! {
         let mut ranging = false;
+        let config = crate::world::slam_config(crate::slam_task::LOCALISER);
+        let fan = ZoneTurn::new(&config.depth.beam_angles);
+        let mut steps = DepthSteps::default();
         loop {
             match with_timeout(FRAME_TIMEOUT, ZONES.wait()).await {
                 Ok((zones, measured)) => {
                     ranging = true;
                     let beams = reduce(&zones, &ROWS);
-                    scans.signal(DepthReading {
-                        scan: DepthScan {
-                            ranges_mm: beams.range_mm,
-                        },
+                    let scan = DepthScan {
+                        ranges_mm: beams.range_mm,
+                    };
+                    if inputs.depth_vouched.swap(false, Ordering::Relaxed) {
+                        steps.vouched();
+                    }
+                    // The gyro's integral now, a few milliseconds after the frame was
+                    // seen ready: the heading at its moment.
+                    let heading = Angle::from_millidegrees(inputs.yaw.yaw_mdeg());
+                    let moment_us = measured.as_micros() as u32;
+                    let doubt = config.plausible.as_ref().and_then(|limits| {
+                        steps.judge(&scan, moment_us, heading, &fan, limits).err()
+                    });
+                    inputs.depth.signal(DepthReading {
+                        scan,
                         measured,
+                        doubt,
                     });
                 }
                 // Before the first frame the sensor is still starting (about 2 s).

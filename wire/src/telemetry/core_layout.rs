@@ -7,8 +7,8 @@
 
 use serde::{Deserialize, Serialize, Serializer};
 use slam_core::{
-    Angle, Calibration, Counters, DepthScan, DriveCommand, FixOutcome, FixRejection, FlowDelta,
-    GyroRate, Localiser, Pose, PoseCovariance, SensorFrame, TagCounters, TagDetection,
+    Angle, Calibration, Counters, DepthScan, Doubt, DriveCommand, FixOutcome, FixRejection,
+    FlowDelta, GyroRate, Localiser, Pose, PoseCovariance, SensorFrame, TagCounters, TagDetection,
     TagDetections, BEAMS, MAX_TAGS,
 };
 
@@ -181,6 +181,8 @@ pub(crate) struct SensorFrameDef {
     #[serde(with = "option_depth")]
     depth: Option<DepthScan>,
     depth_age_us: u32,
+    #[serde(with = "doubt_code")]
+    depth_doubt: Option<Doubt>,
     #[serde(with = "tag_list")]
     tags: TagDetections,
     tags_age_us: u32,
@@ -225,6 +227,31 @@ option_of!(option_gyro, GyroRate, "GyroRateDef");
 option_of!(option_depth, DepthScan, "DepthScanDef");
 option_of!(option_pose, Pose, "PoseDef");
 option_of!(option_command, DriveCommand, "DriveCommandDef");
+
+/// An optional [`Doubt`] on the wire: one byte, its [`Doubt::code`] or 0 for none; an
+/// unknown code is refused as a bad body.
+pub(crate) mod doubt_code {
+    use super::*;
+    use serde::{de::Error, Deserializer, Serializer};
+
+    pub(crate) fn serialize<S: Serializer>(
+        doubt: &Option<Doubt>,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        serializer.serialize_u8(doubt.map_or(0, Doubt::code))
+    }
+
+    pub(crate) fn deserialize<'de, D: Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Option<Doubt>, D::Error> {
+        match u8::deserialize(deserializer)? {
+            0 => Ok(None),
+            code => Doubt::from_code(code)
+                .map(Some)
+                .ok_or_else(|| D::Error::custom("unknown doubt code")),
+        }
+    }
+}
 
 /// [`TagDetections`] on the wire: a varint count, at most [`MAX_TAGS`] (a longer list is
 /// refused as a bad body), then each detection.

@@ -17,7 +17,7 @@
 //! COBS( VERSION | postcard(Message) | CRC16_LE ) | 0x00
 //! ```
 //!
-//! - `VERSION` is one byte, [`WIRE_VERSION`] (`0xB8`: BugBot telemetry, layout 8). A
+//! - `VERSION` is one byte, [`WIRE_VERSION`] (`0xB9`: BugBot telemetry, layout 9). A
 //!   receiver drops frames with any other value.
 //! - `postcard(Message)` is the [postcard 1.x] encoding of [`Message`]: integers `u16`,
 //!   `u32`, `i32` are LEB128 varints (signed ones zigzag-mapped first), `u8` and `i8` are
@@ -36,11 +36,11 @@
 //! | index | message | fields |
 //! |---|---|---|
 //! | 0 | `Hello` | `width: u16`, `height: u16` (cells), `cell_mm: i32`, `origin_x_mm: i32`, `origin_y_mm: i32`, `free_below: i8`, `occupied_above: i8` (cell units, below), `firmware: u8 major, u8 minor, u8 patch`, `localiser` (varint 0 dead reckoning, 1 two-tag fix, 2 filter), then how the run started: `reset` (varint 0 power-on, 1 watchdog, 2 other), `resumed: bool` (one byte 0 or 1: the map, pose and route were taken up from before the reset), `resumes: u16` (resets resumed from since the last fresh start) |
-//! | 1 | `Tick` | `tick: u32`, `time_ms: u32`, `x_um: i32`, `y_um: i32`, `heading_bits: u32` (2^32 per turn, clockwise from +y), `fix` (varint 0 not attempted, 1 taken, 2 rejected followed by varint 0 geometry / 1 gate / 2 too old), `stale: u8` (bit 0 flow, bit 1 gyro, bit 2 depth), `cells_written: u32`, `doubts: u16` (the inputs the core doubts and why, four bits each: gyro in bits 0-3, flow 4-7, depth 8-11; 0 trusted, 1 missing, 2 stuck, 3 impossible, 4 jump, 5 moved while held, 6 a turn not commanded), then the counters as `u32`: ticks, fixes_taken, fixes_rejected_geometry, fixes_rejected_gate, fixes_rejected_too_old, relocalisations, beams_mapped, beams_invalid, flow_stale, gyro_stale, depth_stale, gyro_doubted, flow_doubted, depth_doubted, scans_withheld |
+//! | 1 | `Tick` | `tick: u32`, `time_ms: u32`, `x_um: i32`, `y_um: i32`, `heading_bits: u32` (2^32 per turn, clockwise from +y), `fix` (varint 0 not attempted, 1 taken, 2 rejected followed by varint 0 geometry / 1 gate / 2 too old), `stale: u8` (bit 0 flow, bit 1 gyro, bit 2 depth), `cells_written: u32`, `doubts: u16` (the inputs the core doubts and why, four bits each: gyro in bits 0-3, flow 4-7, depth 8-11; 0 trusted, 1 missing, 2 stuck, 3 impossible, 4 jump, 5 moved while held, 6 a turn not commanded, 7 disagrees with a tag, 8 late), then the counters as `u32`: ticks, fixes_taken, fixes_rejected_geometry, fixes_rejected_gate, fixes_rejected_too_old, relocalisations, beams_mapped, beams_invalid, flow_stale, gyro_stale, depth_stale, gyro_doubted, flow_doubted, depth_doubted, scans_withheld |
 //! | 2 | `MapRows` | `first_row: u16`, `first_column: u16`, `cells`: varint count (at most [`MAX_CHUNK_CELLS`]) then one `i8` per cell |
 //! | 3 | `Health` | twelve `u32`: depth_timeouts, depth_bus_errors, flow_no_surface, flow_outliers, flow_bus_errors, gyro_bus_errors, camera_bad_frames, tick_overruns, watchdog_feeds, depth_start_failures, flow_start_failures, gyro_start_failures |
 //! | 4 | `Filter` | `tick: u32`, the pose covariance as six `i64` (xx, xy, yy, xh, yh, hh; position in 1/16 mm, heading in 2^-16 rad, so xx / 256 is mm² and hh / 2^32 rad²), the calibration as three `i32` (gyro_scale_ppm, gyro_bias_mdps, flow_scale_ppm), the tag counters as six `u32` (used, unknown_id, behind, too_far, too_old, gate) |
-//! | 5 | `Inputs` | `tick: u32`, `time_ms: u32` (as the `Tick` that follows), then the `SensorFrame` the core stepped on: `dt_us: u32`; `flow`: option (postcard's option byte: 0 none, 1 some, then the value) of `forward_counts: i32`, `right_counts: i32` (flow counts); `gyro`: option of `rate_mdps: i32` (clockwise positive); `depth`: option of 8 ranges left to right, each an option of `u16` mm; `depth_age_us: u32`; `tags`: varint count (at most `slam_core::MAX_TAGS`, 8) then each `id: u16`, `cx_centipx: i32`, `distance_mm: u32`; `tags_age_us: u32`; `external_pose`: option of `x_um: i32`, `y_um: i32`, `heading_bits: u32`; `commanded`: option of `speed_mm_s: i32`, `turn_mdps: i32` (what the motors were driven with) |
+//! | 5 | `Inputs` | `tick: u32`, `time_ms: u32` (as the `Tick` that follows), then the `SensorFrame` the core stepped on: `dt_us: u32`; `flow`: option (postcard's option byte: 0 none, 1 some, then the value) of `forward_counts: i32`, `right_counts: i32` (flow counts); `gyro`: option of `rate_mdps: i32` (clockwise positive); `depth`: option of 8 ranges left to right, each an option of `u16` mm; `depth_age_us: u32`; `depth_doubt: u8` (what the depth task made of the scan against the frames before: 0 none, else a doubt code as in `Tick`); `tags`: varint count (at most `slam_core::MAX_TAGS`, 8) then each `id: u16`, `cx_centipx: i32`, `distance_mm: u32`; `tags_age_us: u32`; `external_pose`: option of `x_um: i32`, `y_um: i32`, `heading_bits: u32`; `commanded`: option of `speed_mm_s: i32`, `turn_mdps: i32` (what the motors were driven with) |
 //!
 //! An `Inputs` comes just before the `Tick` of the step it fed, when
 //! [`Schedule::inputs`] is on. A `Filter` follows each `Tick` of a robot whose `Hello` says it flies the filter, and
@@ -93,7 +93,7 @@ pub use message::{
 };
 pub use stream::{encode, EncodeError, Schedule, Streamer};
 
-/// The first byte of every frame: `0xB8`, BugBot telemetry layout 8.
+/// The first byte of every frame: `0xB9`, BugBot telemetry layout 9.
 ///
 /// Bumped whenever the layout changes, so an old viewer drops new frames instead of
 /// misreading them. Layout 2 added the start-up failure counts to `Health`; layout 3 the
@@ -101,8 +101,9 @@ pub use stream::{encode, EncodeError, Schedule, Streamer};
 /// the `Filter` message; layout 5 the `Inputs` message; layout 6 the doubted inputs and
 /// their counters to `Tick`, and the `Hello`'s boot (reset cause, resumed or not); layout
 /// 7 the commanded motion to `Inputs` (and doubt code 6 to `Tick`); layout 8 whether the
-/// `Hello`'s filter matches scans against the map.
-pub const WIRE_VERSION: u8 = 0xB8;
+/// `Hello`'s filter matches scans against the map; layout 9 the depth scan's own doubt to
+/// `Inputs` (and doubt codes 7 and 8 to `Tick`).
+pub const WIRE_VERSION: u8 = 0xB9;
 
 /// Most cells one [`MapRows`] carries: two rows of the seed's 46-cell grid fit, and the
 /// frame stays under 150 bytes (1.6 ms at 921,600 baud).
@@ -110,7 +111,7 @@ pub const MAX_CHUNK_CELLS: usize = 128;
 
 /// Longest postcard encoding of any [`Message`], in bytes: a full [`Inputs`] (index 1; tick,
 /// time and `dt_us` 5 each; flow 1 + 5 + 5; gyro 1 + 5; depth 1 + 8 x (1 + 3); depth age
-/// 5; eight tags, a 1-byte count and 3 + 5 + 5 each; tags age 5; external pose
+/// 5; depth doubt 1; eight tags, a 1-byte count and 3 + 5 + 5 each; tags age 5; external pose
 /// 1 + 5 + 5 + 5; command 1 + 5 + 5). A full [`MapRows`] is shorter: 1 + 3 + 3 + 2 + [`MAX_CHUNK_CELLS`].
 pub const MAX_MESSAGE_LEN: usize = 1
     + 5
@@ -120,6 +121,7 @@ pub const MAX_MESSAGE_LEN: usize = 1
     + (1 + 5)
     + (1 + slam_core::BEAMS * (1 + 3))
     + 5
+    + 1
     + (1 + slam_core::MAX_TAGS * (3 + 5 + 5))
     + 5
     + (1 + 5 + 5 + 5)

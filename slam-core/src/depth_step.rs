@@ -1,0 +1,536 @@
+//! Each depth frame held to the ones before it: every zone's range moving the same way at
+//! once, by more than the robot's motion explains, is a step in the sensor, not the world;
+//! a frame given again after others is a sensor running late.
+//!
+//! A depth sensor that starts reading every range 15 cm long (a fogged cover glass, a lost
+//! calibration) gives frames as varied and plausible as true ones, and where no tag is in
+//! its fan nothing else measures the same lengths ([`crate::tag_range`]). But the change
+//! shows in the frame it begins on. Between two scans the robot turns by what the gyro
+//! reads and drives a few millimetres, so each zone of the new scan looks where the old
+//! scan's zones, turned by that much, looked: its range is predicted by interpolating the
+//! two old zones around it. A wall seen at a slant, a corner or a box's edge moves some
+//! zones and not others; an offset in the sensor moves all of them, the same way, at once.
+//!
+//! The check runs where each frame arrives, before the SLAM tick takes it (the firmware's
+//! depth task; host-sim's loop), with the gyro's own integral as the heading, so it sees
+//! every frame the sensor gives and costs the tick nothing; its verdict comes to the core
+//! with the scan ([`crate::SensorFrame::depth_doubt`]).
+//!
+//! [`DepthSteps`] sums such steps as the sensor's offset and doubts the depth sensor
+//! ([`Doubt::Jump`]) until the offset is back within one step of where it was (the
+//! opposite step, when the sensor recovers) or a tag vouches for the ranges.
+//!
+//! A sensor whose frames come late is a step in time. Mid-turn a late frame draws the
+//! walls turned by what the robot turned since it was taken, and once late, each frame
+//! follows the one before as a fresh one would. But a sensor falling behind hands over
+//! again a frame it had already given, which noise makes all but impossible for a fresh
+//! one: from that frame the sensor is late by the time since it first came ([`Doubt::Late`]).
+//! It is on time again when a frame fits the frame before better as fresh (or as the
+//! first fresh one after a late one) than as late, which shows once the turn differs
+//! between the two moments: as it catches up (it skips the frames it was behind by) or
+//! when a turn starts or stops.
+
+use crate::angle::Angle;
+use crate::frame::{DepthScan, BEAMS};
+use crate::plausible::{check_depth, Doubt, PlausibleConfig};
+
+/// What makes a step, and what makes a late sensor on time again.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct DepthStepConfig {
+    /// Least change from its predicted range that every compared zone must show, the
+    /// same way, millimetres.
+    pub min_step_mm: u16,
+    /// Fewest zones compared (a return in the new scan and in both old zones around it)
+    /// for a step to be called or a frame's fit judged.
+    pub min_zones: u8,
+    /// Longest time between two scans' moments for one to be held to the other,
+    /// microseconds: further apart, the robot may have driven more than a step.
+    pub most_apart_us: u32,
+    /// Least spread of a late sensor's frame about its predicted ranges, taken as late,
+    /// for it to be judged on time again by fitting better as fresh, millimetres (the
+    /// spread: the mean distance of the zones' changes from their mean).
+    pub min_late_spread_mm: u16,
+}
+
+impl DepthStepConfig {
+    /// BugBot: 75 mm, half the 150 mm a plausibly wrong sensor is off by and beyond what
+    /// noise, slanted walls and edges move all of a scan's zones by together on the
+    /// shipped worlds; five of the eight zones; two ticks apart (the robot drives at most
+    /// 26 mm in that time at its fastest route speed of 130 mm/s); a late frame is
+    /// judged by a spread of 15 mm, beyond the 10 mm noise and slanted walls spread a
+    /// fresh frame's changes by on the shipped worlds, and half of that as fresh.
+    pub const SEED: DepthStepConfig = DepthStepConfig {
+        min_step_mm: 75,
+        min_zones: 5,
+        most_apart_us: 200_000,
+        min_late_spread_mm: 15,
+    };
+}
+
+/// How far a turn moves the fan, in zones: the zones' spacing.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct ZoneTurn {
+    /// Millidegrees between neighbouring zones' centres.
+    spacing_mdeg: i32,
+}
+
+impl ZoneTurn {
+    /// One zone in the shift's fixed point.
+    const SHIFT_ONE: i32 = 1 << 10;
+
+    /// The fan of `beam_angles` (equally spaced).
+    pub fn new(beam_angles: &[Angle; BEAMS]) -> ZoneTurn {
+        ZoneTurn {
+            spacing_mdeg: (beam_angles[1] - beam_angles[0]).to_millidegrees().max(1),
+        }
+    }
+
+    /// How many zones (in [`ZoneTurn::SHIFT_ONE`]ths) the fan turned from heading
+    /// `from` to `to` (positive clockwise, as the gyro reads).
+    fn shift(&self, from: Angle, to: Angle) -> i32 {
+        // |turn| <= 180,000 mdeg: times 1,024 stays inside 32 bits.
+        (to - from).to_millidegrees() * ZoneTurn::SHIFT_ONE / self.spacing_mdeg
+    }
+}
+
+/// The shift every compared zone of `now` shows from its range predicted from `before`,
+/// the fan having turned `shift` zones (in [`ZoneTurn::SHIFT_ONE`]ths, positive
+/// clockwise as the gyro reads) between them: the mean change, millimetres, when at least
+/// [`DepthStepConfig::min_zones`] zones were compared and all changed the same way by
+/// [`DepthStepConfig::min_step_mm`] or more; `None` otherwise.
+pub fn step(
+    before: &DepthScan,
+    now: &DepthScan,
+    shift: i32,
+    config: &DepthStepConfig,
+) -> Option<i32> {
+    let least = i32::from(config.min_step_mm);
+    let (mut compared, mut up, mut down, mut sum) = (0u8, 0u8, 0u8, 0i32);
+    for i in 0..BEAMS {
+        let Some(change) = change(before, now, i, shift) else {
+            continue;
+        };
+        compared += 1;
+        up += u8::from(change >= least);
+        down += u8::from(change <= -least);
+        sum += change;
+    }
+    let together = up == compared || down == compared;
+    (compared >= config.min_zones && together).then(|| sum / i32::from(compared))
+}
+
+/// Zone `i`'s range in `now` less the range predicted for it from `before`, the fan
+/// having turned `shift` zones between them; `None` where a range is missing.
+fn change(before: &DepthScan, now: &DepthScan, i: usize, shift: i32) -> Option<i32> {
+    // Where zone i looks now, in the old scan's zones.
+    let at = (i as i32)
+        .checked_mul(ZoneTurn::SHIFT_ONE)?
+        .checked_add(shift)?;
+    let j = usize::try_from(at >> 10).ok()?;
+    let range = now.ranges_mm[i]?;
+    let (a, b) = (
+        (*before.ranges_mm.get(j)?)?,
+        (*before.ranges_mm.get(j + 1)?)?,
+    );
+    let f = at & (ZoneTurn::SHIFT_ONE - 1);
+    let (a, b) = (i32::from(a), i32::from(b));
+    Some(i32::from(range) - (a + (((b - a) * f) >> 10)))
+}
+
+/// How far the zones' changes from `before` to `now` (the fan turned `shift` zones)
+/// spread about their mean, millimetres: small when `shift` is the turn between the two
+/// frames, whatever the offset; `None` with fewer than `min_zones` compared.
+fn spread(before: &DepthScan, now: &DepthScan, shift: i32, min_zones: u8) -> Option<u32> {
+    let mut changes = [0i32; BEAMS];
+    let mut n = 0;
+    for i in 0..BEAMS {
+        if let Some(c) = change(before, now, i, shift) {
+            changes[n] = c;
+            n += 1;
+        }
+    }
+    if n < usize::from(min_zones) {
+        return None;
+    }
+    let changes = &changes[..n];
+    let mean = changes.iter().sum::<i32>() / n as i32;
+    Some(changes.iter().map(|c| c.abs_diff(mean)).sum::<u32>() / n as u32)
+}
+
+/// How many recent frames are kept: to catch one given again, and for the gyro's heading
+/// at their moments.
+const FRAMES_KEPT: usize = 6;
+
+/// A frame as it came: its moment (microseconds on the caller's clock, wrapping) and the
+/// gyro's heading then.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+struct Seen {
+    scan: DepthScan,
+    moment_us: u32,
+    heading: Angle,
+}
+
+/// The frames seen so far, the offset their steps sum to, and how late they come.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+pub struct DepthSteps {
+    /// The newest frames that passed the sensor's own checks, newest at `newest`.
+    frames: [Option<Seen>; FRAMES_KEPT],
+    newest: u8,
+    /// What the steps since the sensor was last vouched for sum to, millimetres.
+    offset_mm: i32,
+    /// How late the sensor's frames come, microseconds; 0: on time.
+    late_us: u32,
+    /// How many frames running have been the newest again, bit for bit.
+    repeats: u8,
+}
+
+impl DepthSteps {
+    /// The frame `back` places before the newest.
+    fn back(&self, back: usize) -> Option<&Seen> {
+        let at = (usize::from(self.newest) + FRAMES_KEPT - back % FRAMES_KEPT) % FRAMES_KEPT;
+        self.frames[at].as_ref()
+    }
+
+    /// The gyro's heading at `moment_us`, between the kept frames' moments around it;
+    /// `None` outside them.
+    fn heading_at(&self, moment_us: u32, newest: &Seen) -> Option<Angle> {
+        let mut later = newest;
+        for back in 0..FRAMES_KEPT {
+            let Some(earlier) = self.back(back) else {
+                break;
+            };
+            // Ages back from the newest moment, so the clock's wrap does not matter.
+            let age = |m: u32| newest.moment_us.wrapping_sub(m) as i32;
+            let (want, from, to) = (age(moment_us), age(later.moment_us), age(earlier.moment_us));
+            if (from..=to).contains(&want) {
+                let span = (to - from).max(1);
+                let turn = (later.heading - earlier.heading).to_millidegrees();
+                // Back from `later` by the share of the turn the time back is.
+                let back_mdeg = i64::from(turn) * i64::from(want - from) / i64::from(span);
+                return Some(later.heading - Angle::from_millidegrees(back_mdeg));
+            }
+            later = earlier;
+        }
+        None
+    }
+
+    /// When `scan` first came, if it came before (not as the newest frame: a frame
+    /// repeated at once is a stuck sensor's), and has returns in half its zones (a
+    /// sparse frame may repeat by chance).
+    fn came_before(&self, scan: &DepthScan) -> Option<u32> {
+        if scan.ranges_mm.iter().flatten().count() < BEAMS / 2 {
+            return None;
+        }
+        (1..FRAMES_KEPT).find_map(|back| {
+            let seen = self.back(back)?;
+            (seen.scan == *scan).then_some(seen.moment_us)
+        })
+    }
+
+    /// Whether `now`, following `before`, fits as fresh (or as the first fresh frame
+    /// after a late one) clearly better than as late by `late_us`.
+    fn caught_up(
+        &self,
+        before: &Seen,
+        now: &Seen,
+        fan: &ZoneTurn,
+        config: &DepthStepConfig,
+    ) -> bool {
+        let late = self.late_us;
+        let fit = |from: Option<Angle>, to: Option<Angle>| {
+            spread(
+                &before.scan,
+                &now.scan,
+                fan.shift(from?, to?),
+                config.min_zones,
+            )
+        };
+        let then_before = self.heading_at(before.moment_us.wrapping_sub(late), now);
+        let then_now = self.heading_at(now.moment_us.wrapping_sub(late), now);
+        let Some(as_late) = fit(then_before, then_now) else {
+            return false;
+        };
+        let as_fresh = [
+            fit(Some(before.heading), Some(now.heading)),
+            fit(then_before, Some(now.heading)),
+        ]
+        .into_iter()
+        .flatten()
+        .min();
+        as_late >= u32::from(config.min_late_spread_mm)
+            && as_fresh.is_some_and(|fresh| fresh.saturating_mul(2) < as_late)
+    }
+
+    /// Judges a frame taken at `moment_us` (microseconds on the caller's clock, wrapping)
+    /// with the gyro's own integral reading `heading` then: the sensor's own checks
+    /// ([`crate::plausible::check_depth`]: a range beyond the sensor's, the newest frame
+    /// again bit for bit), then [`Doubt::Late`] while its frames come late, [`Doubt::Jump`]
+    /// while its steps leave its ranges off where they were. A frame the own checks
+    /// refuse is not held to the others; after one beyond the sensor's range, neither is
+    /// the next.
+    pub fn judge(
+        &mut self,
+        scan: &DepthScan,
+        moment_us: u32,
+        heading: Angle,
+        fan: &ZoneTurn,
+        limits: &PlausibleConfig,
+    ) -> Result<(), Doubt> {
+        let config = &limits.depth_step;
+        let again = self.back(0).is_some_and(|newest| newest.scan == *scan);
+        self.repeats = if again {
+            self.repeats.saturating_add(1)
+        } else {
+            0
+        };
+        if let Err(doubt) = check_depth(scan, self.repeats, limits) {
+            if doubt == Doubt::Impossible {
+                self.broken();
+            }
+            return Err(doubt);
+        }
+        if again {
+            return self.verdict(config);
+        }
+        let now = Seen {
+            scan: *scan,
+            moment_us,
+            heading,
+        };
+        let was_late = self.late_us > 0;
+        if let Some(before) = self.back(0).copied() {
+            if !was_late {
+                if let Some(came) = self.came_before(scan) {
+                    self.late_us = moment_us.wrapping_sub(came).max(1);
+                }
+            } else if self.caught_up(&before, &now, fan, config) {
+                self.late_us = 0;
+            }
+            // A frame late, or the first on time after late ones, is not where the turn
+            // says: its ranges are not held to the one before's.
+            let apart = moment_us.wrapping_sub(before.moment_us);
+            if !was_late && self.late_us == 0 && apart <= config.most_apart_us {
+                let shift = fan.shift(before.heading, heading);
+                if let Some(s) = step(&before.scan, scan, shift, config) {
+                    self.offset_mm = self.offset_mm.saturating_add(s);
+                }
+            }
+        }
+        self.newest = (self.newest + 1) % FRAMES_KEPT as u8;
+        self.frames[usize::from(self.newest)] = Some(now);
+        self.verdict(config)
+    }
+
+    /// The verdict as the last frame left it.
+    fn verdict(&self, config: &DepthStepConfig) -> Result<(), Doubt> {
+        if self.late_us > 0 {
+            Err(Doubt::Late)
+        } else if self.offset_mm.unsigned_abs() >= u32::from(config.min_step_mm) {
+            Err(Doubt::Jump)
+        } else {
+            Ok(())
+        }
+    }
+
+    /// A frame that failed the sensor's own checks: the next is held to none before it.
+    fn broken(&mut self) {
+        self.frames = [None; FRAMES_KEPT];
+    }
+
+    /// A tag's distance agreed with a range: the ranges are right, whatever the steps
+    /// summed to.
+    pub fn vouched(&mut self) {
+        self.offset_mm = 0;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::slam::fan;
+
+    const C: DepthStepConfig = DepthStepConfig::SEED;
+    const LIMITS: PlausibleConfig = PlausibleConfig::SEED;
+
+    fn scan(ranges: [u16; BEAMS]) -> DepthScan {
+        DepthScan {
+            ranges_mm: ranges.map(Some),
+        }
+    }
+
+    /// A wall facing the robot 1 m ahead, seen by the seed's fan turned `turn_mdeg`.
+    fn wall(turn_mdeg: i64, offset: i32) -> DepthScan {
+        let beams = fan(45_000);
+        scan(core::array::from_fn(|i| {
+            let a = beams[i] + Angle::from_millidegrees(turn_mdeg);
+            (1_000 * crate::angle::TRIG_ONE / a.cos() + offset) as u16
+        }))
+    }
+
+    #[test]
+    fn a_turn_the_gyro_read_is_no_step() {
+        let fan_turn = ZoneTurn::new(&fan(45_000));
+        // Turned 3.15 degrees clockwise: the old zones seen 3.15 degrees further round.
+        let shift = fan_turn.shift(
+            Angle::from_millidegrees(-10_000),
+            Angle::from_millidegrees(-6_850),
+        );
+        assert_eq!(shift, 3_150 * 1024 / 5_625);
+        let before = wall(-10_000, 0);
+        let now = wall(-10_000 + 3_150, 0);
+        assert_eq!(step(&before, &now, shift, &C), None);
+        // The same turn with the sensor reading 150 mm long from now on.
+        let long = wall(-10_000 + 3_150, 150);
+        let s = step(&before, &long, shift, &C).expect("a step");
+        assert!((140..=160).contains(&s), "{s}");
+        // Back again.
+        let s = step(&long, &wall(-10_000 + 6_300, 0), shift, &C).expect("a step back");
+        assert!((-160..=-140).contains(&s), "{s}");
+    }
+
+    #[test]
+    fn some_zones_moving_is_the_world_not_the_sensor() {
+        let before = scan([1_000; BEAMS]);
+        // A box comes into the first three zones; the rest see the wall as before.
+        let mut now = before;
+        for r in now.ranges_mm.iter_mut().take(3) {
+            *r = Some(600);
+        }
+        assert_eq!(step(&before, &now, 0, &C), None);
+        // Every zone 60 mm shorter: driving, not a step.
+        assert_eq!(step(&before, &scan([940; BEAMS]), 0, &C), None);
+        // Every zone 80 mm shorter: a step.
+        assert_eq!(step(&before, &scan([920; BEAMS]), 0, &C), Some(-80));
+    }
+
+    #[test]
+    fn too_few_zones_compared_call_nothing() {
+        let before = scan([1_000; BEAMS]);
+        let mut now = scan([1_200; BEAMS]);
+        for r in now.ranges_mm.iter_mut().take(4) {
+            *r = None;
+        }
+        assert_eq!(step(&before, &now, 0, &C), None);
+        // Turned two zones: six zones still look where an old pair looked; three: four.
+        assert_eq!(
+            step(&before, &scan([1_200; BEAMS]), 2 * 1024, &C),
+            Some(200)
+        );
+        assert_eq!(step(&before, &scan([1_200; BEAMS]), 3 * 1024, &C), None);
+        assert_eq!(
+            step(&before, &scan([1_200; BEAMS]), -2 * 1024, &C),
+            Some(200)
+        );
+        assert_eq!(step(&before, &scan([1_200; BEAMS]), 1024, &C), Some(200));
+    }
+
+    /// Frames taken 100 ms apart at the headings given, from a fresh [`DepthSteps`].
+    struct Feed {
+        steps: DepthSteps,
+        moment_us: u32,
+        fan: ZoneTurn,
+    }
+
+    impl Feed {
+        fn new() -> Feed {
+            Feed {
+                steps: DepthSteps::default(),
+                moment_us: 0,
+                fan: ZoneTurn::new(&fan(45_000)),
+            }
+        }
+
+        fn frame(&mut self, scan: &DepthScan, heading_mdeg: i64) -> Result<(), Doubt> {
+            self.moment_us = self.moment_us.wrapping_add(100_000);
+            let heading = Angle::from_millidegrees(heading_mdeg);
+            self.steps
+                .judge(scan, self.moment_us, heading, &self.fan, &LIMITS)
+        }
+    }
+
+    #[test]
+    fn the_sensor_is_doubted_until_its_offset_is_back_or_vouched_for() {
+        let mut feed = Feed::new();
+        // A wall ahead, each frame a millimetre or two apart from the last (noise: no
+        // frame comes twice).
+        let mut noise = 0;
+        let mut frame = |feed: &mut Feed, r: u16| {
+            noise = (noise + 1) % 5;
+            feed.frame(&scan([r + noise; BEAMS]), 0)
+        };
+        assert_eq!(frame(&mut feed, 1_000), Ok(()));
+        assert_eq!(frame(&mut feed, 1_150), Err(Doubt::Jump));
+        assert_eq!(frame(&mut feed, 1_150), Err(Doubt::Jump));
+        assert_eq!(frame(&mut feed, 1_002), Ok(()));
+        assert_eq!(frame(&mut feed, 1_150), Err(Doubt::Jump));
+        feed.steps.vouched();
+        assert_eq!(frame(&mut feed, 1_150), Ok(()));
+        // Frames too far apart are not held to each other.
+        feed.moment_us += 200_000;
+        assert_eq!(frame(&mut feed, 1_000), Ok(()));
+        // Nor is one after a frame with a range no sensor reads.
+        assert_eq!(frame(&mut feed, 9_000), Err(Doubt::Impossible));
+        assert_eq!(frame(&mut feed, 1_300), Ok(()));
+        // A frame given again at once is a stuck sensor's, not a late one's.
+        let same = scan([1_301; BEAMS]);
+        assert_eq!(feed.frame(&same, 0), Ok(()));
+        assert_eq!(feed.frame(&same, 0), Err(Doubt::Stuck));
+        assert_eq!(feed.frame(&same, 0), Err(Doubt::Stuck));
+        assert_eq!(feed.frame(&scan([1_302; BEAMS]), 0), Ok(()));
+    }
+
+    /// The frame the seed's fan sees at `heading_mdeg` in a room whose walls lie
+    /// 1,000 mm +- 500 mm from the robot, three times round a turn.
+    fn room(heading_mdeg: i64) -> DepthScan {
+        let beams = fan(45_000);
+        scan(core::array::from_fn(|i| {
+            let bearing = beams[i] + Angle::from_millidegrees(heading_mdeg);
+            let thrice = bearing + bearing + bearing;
+            (1_000 + 500 * thrice.sin() / crate::angle::TRIG_ONE) as u16
+        }))
+    }
+
+    #[test]
+    fn a_frame_given_again_is_late_until_the_frames_fit_as_fresh() {
+        let mut feed = Feed::new();
+        // Turning at 31.5 deg/s; from frame 10 the sensor gives the frame of three
+        // before, from frame 20 its own again.
+        for k in 0..30i64 {
+            let given = if (10..20).contains(&k) { k - 3 } else { k };
+            let verdict = feed.frame(&room(given * 3_150), k * 3_150);
+            let late = (10..20).contains(&k);
+            assert_eq!(verdict.is_err(), late, "frame {k}: {verdict:?}");
+            if late {
+                assert_eq!(verdict, Err(Doubt::Late));
+            }
+        }
+    }
+
+    #[test]
+    fn a_late_sensor_that_catches_up_standing_is_on_time_when_the_turn_starts() {
+        let mut feed = Feed::new();
+        // Turning until frame 15, standing until 25, turning again. The sensor gives the
+        // frame of three before from frame 10 to 20.
+        let mut headings = [0i64; 40];
+        for k in 0..40usize {
+            let turning = !(15..25).contains(&k);
+            headings[k] = if k == 0 {
+                0
+            } else {
+                headings[k - 1] + if turning { 3_150 } else { 0 }
+            };
+            let given = if (10..20).contains(&k) { k - 3 } else { k };
+            // A millimetre of noise a frame: a standing robot's frames differ.
+            let mut frame = room(headings[given]);
+            if let Some(r) = frame.ranges_mm[0].as_mut() {
+                *r += (k % 3) as u16;
+            }
+            let verdict = feed.frame(&frame, headings[k]);
+            // Late from the frame given again until the first frame that shows the
+            // turn starting at once.
+            let late = (10..25).contains(&k);
+            assert_eq!(verdict.is_err(), late, "frame {k}: {verdict:?}");
+        }
+    }
+}
