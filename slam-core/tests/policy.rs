@@ -2,9 +2,11 @@
 //! is written at a pose the core cannot vouch for, and trust comes back with plausible
 //! readings.
 
+use slam_core::depth_step::{DepthSteps, ZoneTurn};
+use slam_core::slam::fan;
 use slam_core::{
-    DepthScan, Doubt, DriveCommand, FlowDelta, GyroRate, Input, Localiser, Pose, SensorFrame, Slam,
-    StepReport, BEAMS,
+    Angle, DepthScan, Doubt, DriveCommand, FlowDelta, GyroRate, Input, Localiser, PlausibleConfig,
+    Pose, SensorFrame, Slam, StepReport, BEAMS,
 };
 
 type Robot = Slam<46, 46>;
@@ -116,19 +118,36 @@ fn a_gyro_stuck_or_impossible_is_doubted_and_the_guard_holds() {
 #[test]
 fn a_repeated_or_impossible_depth_frame_is_not_mapped() {
     let mut slam = robot();
+    // Each frame judged where it arrives, as the firmware's depth task and host-sim do:
+    // the repeat is seen there, the impossible range there and in the core.
+    let mut steps = DepthSteps::default();
+    let fan = ZoneTurn::new(&fan(45_000));
+    let limits = PlausibleConfig::SEED;
+    let mut moment = 0u32;
+    let mut step = |slam: &mut Robot, mut f: SensorFrame| {
+        moment += 100_000;
+        if let Some(scan) = &f.depth {
+            f.depth_doubt = steps.judge(scan, moment, Angle::ZERO, &fan, &limits).err();
+        }
+        slam.step(&f)
+    };
     let still = |k: i32| frame(k, Some(0));
-    assert!(slam.step(&still(1)).cells_written > 0);
-    let repeated = slam.step(&still(1));
+    assert!(step(&mut slam, still(1)).cells_written > 0);
+    let repeated = step(&mut slam, still(1));
     assert_eq!(repeated.trust.depth, Some(Doubt::Stuck));
     assert_eq!(repeated.cells_written, 0);
     let mut garbage = still(2);
     garbage.depth = Some(DepthScan {
         ranges_mm: [Some(60_000); BEAMS],
     });
+    assert_eq!(step(&mut slam, garbage.clone()).cells_written, 0);
+    // The core refuses an impossible range on its own too.
+    garbage.depth_doubt = None;
+    assert_eq!(slam.step(&garbage).trust.depth, Some(Doubt::Stuck));
     assert_eq!(slam.step(&garbage).cells_written, 0);
     // Three new frames in a row and the sensor is believed again; the pose never was
     // in doubt.
-    let reports: Vec<_> = (3..6).map(|k| slam.step(&still(k))).collect();
+    let reports: Vec<_> = (3..6).map(|k| step(&mut slam, still(k))).collect();
     assert!(reports.iter().all(|r| r.trust.pose()));
     assert_eq!(reports[1].cells_written, 0);
     assert_eq!(reports[2].trust.depth, None);
@@ -240,4 +259,59 @@ fn a_depth_sensor_that_disagrees_with_a_tag_is_not_mapped_until_a_tag_agrees() {
     assert_eq!(agreed[1].trust.depth, Some(Doubt::DisagreesWithTag));
     assert_eq!(agreed[2].trust.depth, None);
     assert!(agreed[2].cells_written > 0);
+}
+
+#[test]
+fn a_scan_the_depth_task_doubts_is_not_mapped_and_a_tag_outranks_it() {
+    let mut slam = robot();
+    let tag = |distance_mm: u32| slam_core::TagDetection {
+        id: 99,
+        cx_centipx: 16_000 + 300,
+        distance_mm,
+    };
+    let mut k = 0;
+    let mut step = |slam: &mut Robot, doubt: Option<Doubt>, seen: Option<u32>| {
+        k += 1;
+        let mut f = frame(k, Some(0));
+        f.depth_doubt = doubt;
+        if let Some(d) = seen {
+            f.tags.push(tag(d)).expect("room for a tag");
+        }
+        slam.step(&f)
+    };
+    for _ in 0..3 {
+        assert!(step(&mut slam, None, None).cells_written > 0);
+    }
+    // Late frames: doubted and withheld while the depth task says so; then three
+    // frames it passes and the sensor is trusted again.
+    for _ in 0..4 {
+        let r = step(&mut slam, Some(Doubt::Late), None);
+        assert_eq!((r.trust.depth, r.cells_written), (Some(Doubt::Late), 0));
+    }
+    for _ in 0..2 {
+        assert_eq!(step(&mut slam, None, None).trust.depth, Some(Doubt::Late));
+    }
+    let back = step(&mut slam, None, None);
+    assert_eq!(back.trust.depth, None);
+    assert!(back.cells_written > 0);
+    assert!(!slam.depth_vouched());
+    // A step in the ranges the depth task saw, then a tag that disagrees: from then only
+    // tags lift the doubt, whatever the depth task says.
+    assert_eq!(
+        step(&mut slam, Some(Doubt::Jump), None).trust.depth,
+        Some(Doubt::Jump)
+    );
+    let told = step(&mut slam, Some(Doubt::Jump), Some(1_000));
+    assert_eq!(told.trust.depth, Some(Doubt::DisagreesWithTag));
+    assert!(!slam.depth_vouched());
+    for _ in 0..5 {
+        let r = step(&mut slam, None, None);
+        assert_eq!(
+            (r.trust.depth, r.cells_written),
+            (Some(Doubt::DisagreesWithTag), 0)
+        );
+    }
+    // A tag that agrees vouches for the ranges: the depth task is told.
+    step(&mut slam, None, Some(806));
+    assert!(slam.depth_vouched());
 }

@@ -5,8 +5,8 @@ mod reference;
 use proptest::prelude::*;
 use slam_core::odometry::{self, OdometryConfig};
 use slam_core::{
-    Angle, DepthScan, DriveCommand, FlowDelta, GyroRate, Pose, SensorFrame, Slam, TagDetection,
-    TagDetections, MAX_TAGS,
+    Angle, DepthScan, Doubt, DriveCommand, FlowDelta, GyroRate, Pose, SensorFrame, Slam,
+    TagDetection, TagDetections, MAX_TAGS,
 };
 
 fn config() -> ProptestConfig {
@@ -76,6 +76,8 @@ fn frame() -> impl Strategy<Value = SensorFrame> {
                     gyro: gyro.map(|g| GyroRate { rate_mdps: g }),
                     depth: depth.map(|ranges_mm| DepthScan { ranges_mm }),
                     depth_age_us,
+                    // Any verdict of the depth task's, none included.
+                    depth_doubt: Doubt::from_code((depth_age_us % 10) as u8),
                     tags,
                     tags_age_us,
                     external_pose,

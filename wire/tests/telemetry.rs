@@ -157,6 +157,7 @@ fn sensor_frame() -> SensorFrame {
         gyro: Some(GyroRate { rate_mdps: -1_234 }),
         depth: Some(DepthScan { ranges_mm }),
         depth_age_us: 33_000,
+        depth_doubt: Some(Doubt::Jump),
         tags,
         tags_age_us: 61_000,
         external_pose: Some(Pose::from_mm_mdeg(700, 500, 90_000)),
@@ -201,6 +202,7 @@ fn worst_inputs() -> Message {
                 ranges_mm: [Some(u16::MAX); BEAMS],
             }),
             depth_age_us: u32::MAX,
+            depth_doubt: Some(Doubt::Late),
             tags,
             tags_age_us: u32::MAX,
             external_pose: Some(Pose {
@@ -238,7 +240,7 @@ fn health_frame_fixture() {
         gyro_start_failures: 2,
         ..SensorHealth::default()
     });
-    let stuffed = sealed(&[0xB8, 3, 0, 1, 0xAC, 0x02, 0, 0, 0, 0, 0, 0, 0, 0, 2]);
+    let stuffed = sealed(&[0xB9, 3, 0, 1, 0xAC, 0x02, 0, 0, 0, 0, 0, 0, 0, 0, 2]);
     assert_eq!(frame(&h), stuffed);
     // No zero before the delimiter.
     assert!(!stuffed[..stuffed.len() - 1].contains(&0));
@@ -271,7 +273,7 @@ fn filter_frame_fixture() {
         },
     });
     let raw = [
-        0xB8, 4, 2, 0xD8, 0x04, 1, 0, 0, 0, 0x80, 0x80, 0x08, 3, 0, 0x80, 0x01, 5, 0, 0, 1, 0, 2,
+        0xB9, 4, 2, 0xD8, 0x04, 1, 0, 0, 0, 0x80, 0x80, 0x08, 3, 0, 0x80, 0x01, 5, 0, 0, 1, 0, 2,
     ];
     assert_eq!(frame(&m), sealed(&raw));
     assert_eq!(decode_all(&sealed(&raw)).0, std::vec![Ok(m)]);
@@ -317,7 +319,7 @@ fn refuses_hello_with(changes: &[(usize, u8)]) {
         let mut body = hello_body(&hello());
         let at = body.len() - from_end;
         body[at] = bad;
-        let mut raw = std::vec![0xB8];
+        let mut raw = std::vec![0xB9];
         raw.extend(body);
         assert_eq!(
             decode_all(&sealed(&raw)).0,
@@ -360,9 +362,27 @@ fn inputs_frame_fixture() {
         time_ms: 2,
         frame: SensorFrame::empty(3),
     });
-    let raw = [0xB8, 5, 1, 2, 3, 0, 0, 0, 0, 0, 0, 0, 0];
+    let raw = [0xB9, 5, 1, 2, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0];
     assert_eq!(frame(&m), sealed(&raw));
     assert_eq!(decode_all(&sealed(&raw)).0, std::vec![Ok(m)]);
+    // The depth task found the scan late: doubt code 8 after the depth's age; a code no
+    // doubt has is refused.
+    let m = Message::Inputs(Inputs {
+        tick: 1,
+        time_ms: 2,
+        frame: SensorFrame {
+            depth_doubt: Some(Doubt::Late),
+            ..SensorFrame::empty(3)
+        },
+    });
+    let raw = [0xB9, 5, 1, 2, 3, 0, 0, 0, 0, 8, 0, 0, 0, 0];
+    assert_eq!(frame(&m), sealed(&raw));
+    assert_eq!(decode_all(&sealed(&raw)).0, std::vec![Ok(m)]);
+    let raw = [0xB9, 5, 1, 2, 3, 0, 0, 0, 0, 9, 0, 0, 0, 0];
+    assert_eq!(
+        decode_all(&sealed(&raw)).0,
+        std::vec![Err(FrameError::Body)]
+    );
     // One tag (id 11, cx -1 zigzagged to 1, 300 mm) and a gyro reading of 5 mdps.
     let mut tags = TagDetections::new();
     let _ = tags.push(TagDetection {
@@ -380,7 +400,7 @@ fn inputs_frame_fixture() {
         },
     });
     let raw = [
-        0xB8, 5, 1, 2, 3, 0, 1, 10, 0, 0, 1, 11, 1, 0xAC, 0x02, 0, 0, 0,
+        0xB9, 5, 1, 2, 3, 0, 1, 10, 0, 0, 0, 1, 11, 1, 0xAC, 0x02, 0, 0, 0,
     ];
     assert_eq!(frame(&m), sealed(&raw));
     // Commanded 86 mm/s (zigzag 172) and -31.5 deg/s (zigzag 62,999).
@@ -396,7 +416,7 @@ fn inputs_frame_fixture() {
         },
     });
     let raw = [
-        0xB8, 5, 1, 2, 3, 0, 0, 0, 0, 0, 0, 0, 1, 0xAC, 0x01, 0x97, 0xEC, 0x03,
+        0xB9, 5, 1, 2, 3, 0, 0, 0, 0, 0, 0, 0, 0, 1, 0xAC, 0x01, 0x97, 0xEC, 0x03,
     ];
     assert_eq!(frame(&m), sealed(&raw));
     assert_eq!(decode_all(&sealed(&raw)).0, std::vec![Ok(m)]);
@@ -404,7 +424,7 @@ fn inputs_frame_fixture() {
 
 #[test]
 fn inputs_with_more_tags_than_the_core_holds_are_refused() {
-    let mut raw = std::vec![0xB8, 5, 1, 2, 3, 0, 0, 0, 0];
+    let mut raw = std::vec![0xB9, 5, 1, 2, 3, 0, 0, 0, 0, 0];
     raw.push(u8::try_from(MAX_TAGS + 1).unwrap_or(u8::MAX));
     for _ in 0..=MAX_TAGS {
         raw.extend([1, 0, 0]);
@@ -415,7 +435,7 @@ fn inputs_with_more_tags_than_the_core_holds_are_refused() {
         std::vec![Err(FrameError::Body)]
     );
     // The same with the most it holds decodes.
-    let mut raw = std::vec![0xB8, 5, 1, 2, 3, 0, 0, 0, 0];
+    let mut raw = std::vec![0xB9, 5, 1, 2, 3, 0, 0, 0, 0, 0];
     raw.push(u8::try_from(MAX_TAGS).unwrap_or(u8::MAX));
     for _ in 0..MAX_TAGS {
         raw.extend([1, 0, 0]);
@@ -581,7 +601,7 @@ fn garbage_between_frames_resynchronises() {
     bytes.extend([1, 2, 3, 4, 5, 0]);
     bytes.extend(frame(&tick()));
     bytes.extend([0, 0, 0]); // empty frames: ignored
-    bytes.extend([0xB8, 0x07, 0]); // stuffing that runs past the end
+    bytes.extend([0xB9, 0x07, 0]); // stuffing that runs past the end
     bytes.extend(frame(&health()));
     let (out, stats) = decode_all(&bytes);
     let good: Vec<Message> = out.iter().filter_map(|r| r.clone().ok()).collect();
@@ -654,13 +674,13 @@ fn wrong_version_and_bad_body_are_told_apart() {
     }
 
     for raw in [
-        std::vec![0xB8, 9],                                        // no such variant
-        std::vec![0xB8, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0],             // health cut short
-        std::vec![0xB8, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 7], // a byte left over
-        std::vec![0xB8, 2, 0, 0, 0x81, 0x01],                      // 129 cells announced
-        std::vec![0xB8, 4, 1, 0, 0, 0, 0, 0],                      // filter cut short
-        std::vec![0xB8, 5, 1, 2, 3, 0, 0, 0],                      // inputs cut short
-        std::vec![0xB8, 5, 1, 2, 3, 2],                            // flow option byte 2
+        std::vec![0xB9, 9],                                        // no such variant
+        std::vec![0xB9, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0],             // health cut short
+        std::vec![0xB9, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 7], // a byte left over
+        std::vec![0xB9, 2, 0, 0, 0x81, 0x01],                      // 129 cells announced
+        std::vec![0xB9, 4, 1, 0, 0, 0, 0, 0],                      // filter cut short
+        std::vec![0xB9, 5, 1, 2, 3, 0, 0, 0],                      // inputs cut short
+        std::vec![0xB9, 5, 1, 2, 3, 2],                            // flow option byte 2
     ] {
         assert_eq!(
             decode_all(&sealed(&raw)).0,
@@ -1013,6 +1033,7 @@ proptest! {
                 gyro: present[1].then_some(GyroRate { rate_mdps: v[5] as i32 }),
                 depth: present[2].then_some(DepthScan { ranges_mm: ranges }),
                 depth_age_us: v[6],
+                depth_doubt: Doubt::from_code((v[6] % 9) as u8),
                 tags: detections,
                 tags_age_us: v[7],
                 external_pose: present[3].then_some(Pose {
