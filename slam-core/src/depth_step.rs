@@ -77,7 +77,7 @@ pub struct ZoneTurn {
 
 impl ZoneTurn {
     /// One zone in the shift's fixed point.
-    const SHIFT_ONE: i32 = 1 << 10;
+    pub const SHIFT_ONE: i32 = 1 << 10;
 
     /// The fan of `beam_angles` (equally spaced).
     pub fn new(beam_angles: &[Angle; BEAMS]) -> ZoneTurn {
