@@ -378,7 +378,7 @@ mod tests {
         for step in 0..3000 {
             match rng.within(2) {
                 -2 | -1 => {
-                    let (p, dt) = (pose(&mut rng), 50_000 + rng.within(50_000) as u32);
+                    let (p, dt) = (pose(&mut rng), (50_000 + rng.within(50_000)) as u32);
                     lazy.push(p, dt);
                     eager.push((p, dt));
                     if eager.len() > HISTORY_LEN {
