@@ -299,3 +299,37 @@ fn unchecked(config: slam_core::SlamConfig) -> slam_core::SlamConfig {
         ..config
     }
 }
+
+/// A column further off the centre than the picture is wide is no reading (a camera
+/// sending garbage): refused outright and counted by the gate, however wide the gate is,
+/// and nothing moves. Here the filter knows its heading only to 90 degrees, and the
+/// column (as far right as 32 bits go) is 60 degrees from tag 12's predicted bearing.
+#[test]
+fn a_column_off_the_picture_is_refused_however_wide_the_gate() {
+    let start = Pose::from_mm_mdeg(900, 900, 0);
+    let unsure = |config: SlamConfig| SlamConfig {
+        estimator: EstimatorConfig {
+            initial_heading_mdeg: 90_000,
+            initial_position_mm: 500,
+            ..config.estimator
+        },
+        ..config
+    };
+    let mut slam = SeedSlam::new(unsure(*filter(start).config()), start).unwrap();
+    let mut control = slam.clone();
+    let mut frame = still();
+    let _ = frame.tags.push(TagDetection {
+        id: t12().id,
+        cx_centipx: i32::MAX,
+        distance_mm: 1_209,
+    });
+    slam.step(&frame);
+    control.step(&still());
+    assert_eq!(slam.tag_counters().used, 0);
+    assert_eq!(slam.tag_counters().gate, 1);
+    assert_eq!(slam.pose(), control.pose());
+    assert_eq!(
+        slam.estimator().covariance(),
+        control.estimator().covariance()
+    );
+}

@@ -112,7 +112,9 @@ pub enum TagRefusal {
     TooFar,
     /// The picture is older than the pose history reaches.
     TooOld,
-    /// It disagrees with the prediction beyond the chi-square gate.
+    /// It disagrees with the prediction beyond the chi-square gate, or so far that it is
+    /// refused outright: a bearing more than a quarter turn off, a column further off the
+    /// picture's centre than the picture is wide.
     Gate,
 }
 

@@ -128,6 +128,12 @@ impl Estimator {
         // asin(x) = x + x^3 / 6 to 1e-6 rad below 0.1 (as nearly every innovation is), the
         // angle itself by CORDIC past it; more than a quarter turn off is refused outright.
         let nu_range = i64::from(detection.distance_mm) * units::POSITION_PER_MM - range;
+        // A column further off the centre than the picture is wide is no reading at all:
+        // refused outright, as the gate would refuse it.
+        let off_centre = i64::from(detection.cx_centipx) - i64::from(camera.centre_centipx);
+        if off_centre.unsigned_abs() > 2 * u64::from(camera.centre_centipx.unsigned_abs()) {
+            return Err(TagRefusal::Gate);
+        }
         let (sin_m, cos_m) = camera.ray(detection.cx_centipx);
         let sin_nu = i64::from(mul_q16_32(sin_m, cos_b) - mul_q16_32(cos_m, sin_b));
         let cos_nu = mul_q16_32(cos_m, cos_b) + mul_q16_32(sin_m, sin_b);
