@@ -36,6 +36,16 @@ fn frame(k: i32, gyro_mdps: Option<i32>) -> SensorFrame {
     f
 }
 
+/// A tag straight ahead, `distance_mm` away (the picture's centre column): where the
+/// wall of [`frame`]'s scan stands, at 800 mm.
+fn tag_ahead(distance_mm: u32) -> slam_core::TagDetection {
+    slam_core::TagDetection {
+        id: 99,
+        cx_centipx: 16_000 + 300,
+        distance_mm,
+    }
+}
+
 fn heading_mdeg(r: &StepReport) -> i32 {
     r.pose.heading.to_millidegrees()
 }
@@ -218,12 +228,6 @@ fn a_gyro_reading_more_turn_than_commanded_is_doubted_and_the_turn_held() {
 #[cfg(feature = "tag-range")]
 fn a_depth_sensor_that_disagrees_with_a_tag_is_not_mapped_until_a_tag_agrees() {
     let mut slam = robot();
-    // A tag straight ahead at the wall's 800 mm (the picture's centre column).
-    let tag = |distance_mm: u32| slam_core::TagDetection {
-        id: 99,
-        cx_centipx: 16_000 + 300,
-        distance_mm,
-    };
     let mut k = 0;
     let mut step = |slam: &mut Robot, offset_mm: u16, seen: Option<u32>| {
         k += 1;
@@ -234,7 +238,7 @@ fn a_depth_sensor_that_disagrees_with_a_tag_is_not_mapped_until_a_tag_agrees() {
             }
         }
         if let Some(d) = seen {
-            f.tags.push(tag(d)).expect("room for a tag");
+            f.tags.push(tag_ahead(d)).expect("room for a tag");
         }
         slam.step(&f)
     };
@@ -264,18 +268,13 @@ fn a_depth_sensor_that_disagrees_with_a_tag_is_not_mapped_until_a_tag_agrees() {
 #[test]
 fn a_scan_the_depth_task_doubts_is_not_mapped_and_a_tag_outranks_it() {
     let mut slam = robot();
-    let tag = |distance_mm: u32| slam_core::TagDetection {
-        id: 99,
-        cx_centipx: 16_000 + 300,
-        distance_mm,
-    };
     let mut k = 0;
     let mut step = |slam: &mut Robot, doubt: Option<Doubt>, seen: Option<u32>| {
         k += 1;
         let mut f = frame(k, Some(0));
         f.depth_doubt = doubt;
         if let Some(d) = seen {
-            f.tags.push(tag(d)).expect("room for a tag");
+            f.tags.push(tag_ahead(d)).expect("room for a tag");
         }
         slam.step(&f)
     };
