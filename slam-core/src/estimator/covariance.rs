@@ -10,7 +10,7 @@
 // Symmetric updates index rows and columns together: plain index loops read best.
 #![allow(clippy::needless_range_loop)]
 
-use super::fixed::{mul_shift, wide_mul, wide_mul_unsigned, Reciprocal};
+use super::fixed::{mul_shift, round_shift, wide_mul, wide_mul_unsigned, Reciprocal};
 use super::State;
 use crate::pose::{isqrt, mul_q16_32};
 
@@ -363,6 +363,29 @@ impl Covariance {
         [k1, k2]
     }
 
+    /// [`Covariance::update`] to within a unit however large the `a`s: each product
+    /// `a_i a_j / s` is there a Q16 gain times an `a`, and a gain is up to `2^-17` off,
+    /// which times an `a` past 2^16 is more than a unit. Where an update takes away
+    /// nearly all of a large variance (a sighting with the heading barely known, after a
+    /// stale gyro or a forgotten heading) such units leave the matrix indefinite; here an
+    /// `a` past 2^16 has its gains worked out to as many more bits as it has. For the
+    /// updates whose `P h` may be that large: `update` is the one the step's worst case
+    /// pays for.
+    #[inline(never)]
+    pub fn update_precise(&mut self, updates: [(&[i64; N], &Reciprocal); 2]) -> [[i64; N]; 2] {
+        let [(a1, s1), (a2, s2)] = updates;
+        match (narrow(a1), narrow(a2)) {
+            (Some(n1), Some(n2)) if max_abs(&n1).max(max_abs(&n2)) > 1 << GAIN_SHIFT => {
+                self.update_fine(updates, [&n1, &n2])
+            }
+            (Some(_), Some(_)) => self.update(updates),
+            _ => {
+                self.update_exact(updates);
+                [s1.times_each(a1, GAIN_SHIFT), s2.times_each(a2, GAIN_SHIFT)]
+            }
+        }
+    }
+
     /// [`Covariance::update`]'s `P - k1 a1^T - k2 a2^T` where every product and their
     /// rounded sum fit 32 bits ([`products_fit_i32`]).
     fn update_narrow(&mut self, updates: [(&[i32; N], &[i32; N]); 2]) {
@@ -432,6 +455,58 @@ impl Covariance {
                 let d = (wide_mul(k1[i], a1[j]) + wide_mul(k2[i], a2[j]) + (1 << (GAIN_SHIFT - 1)))
                     >> GAIN_SHIFT;
                 let v = clamp32(i64::from(self.m[i][j]) - d);
+                self.m[i][j] = v;
+                self.m[j][i] = v;
+            }
+        }
+    }
+
+    /// [`Covariance::update`] for an `a` past 2^16 but within 32 bits: the gains to a
+    /// `2^shift` at least four times the largest `a`, so that each one's rounding is under
+    /// an eighth of a unit of its products, which are then 32 x 32 multiplies. Returns
+    /// the gains rounded to Q16, as `update` does. A gain past 32 bits at that shift
+    /// takes the products whole ([`Covariance::update_exact`]).
+    #[cold]
+    #[inline(never)]
+    fn update_fine(
+        &mut self,
+        updates: [(&[i64; N], &Reciprocal); 2],
+        a: [&[i32; N]; 2],
+    ) -> [[i64; N]; 2] {
+        let [(a1, s1), (a2, s2)] = updates;
+        let largest = max_abs(a[0]).max(max_abs(a[1]));
+        // largest < 2^bits, bits from 18 to 32: a shift from 19 to 34.
+        let shift = 34 - largest.leading_zeros();
+        let (f1, f2) = (s1.times_each(a1, shift), s2.times_each(a2, shift));
+        let (Some(k1), Some(k2)) = (narrow(&f1), narrow(&f2)) else {
+            self.update_exact(updates);
+            return [s1.times_each(a1, GAIN_SHIFT), s2.times_each(a2, GAIN_SHIFT)];
+        };
+        for i in 0..N {
+            for j in i..N {
+                let p = wide_mul(k1[i], a[0][j]).saturating_add(wide_mul(k2[i], a[1][j]));
+                let v = clamp32(i64::from(self.m[i][j]).saturating_sub(round_shift(p, shift)));
+                self.m[i][j] = v;
+                self.m[j][i] = v;
+            }
+        }
+        let q16 = |f: [i64; N]| f.map(|k| round_shift(k, shift - GAIN_SHIFT));
+        [q16(f1), q16(f2)]
+    }
+
+    /// [`Covariance::update`]'s `P - a1 a1^T / s1 - a2 a2^T / s2` from each product
+    /// `a_i a_j` whole, divided once: for an `a` past 32 bits, where a gain times it is
+    /// far past the products' 64 bits (only a filter lost far past the variances'
+    /// ceilings has one).
+    #[cold]
+    #[inline(never)]
+    fn update_exact(&mut self, updates: [(&[i64; N], &Reciprocal); 2]) {
+        for i in 0..N {
+            for j in i..N {
+                let d = updates.iter().fold(0i64, |d, (a, s)| {
+                    d.saturating_add(s.times_product(a[i], a[j]))
+                });
+                let v = clamp32(i64::from(self.m[i][j]).saturating_sub(d));
                 self.m[i][j] = v;
                 self.m[j][i] = v;
             }
@@ -784,5 +859,45 @@ mod tests {
             rows.iter().all(|&r| r > 10_000),
             "long and short rows {rows:?}"
         );
+    }
+
+    /// `P - a1 a1^T / s1 - a2 a2^T / s2` in `f64`, against `update_precise` on the same `a`s
+    /// and `s`s: every entry within a unit (and the reciprocal's 2^-30 of what is taken
+    /// away), however large the `a`s. Gains rounded to Q16 are up to 2^-17 off, which
+    /// times an `a` of 2^28 is a thousand units.
+    #[test]
+    fn an_update_of_a_large_variance_is_within_a_unit_of_the_exact_one() {
+        let mut rng = Lcg::new(23);
+        let mut fine = 0;
+        for n in 0..20_000 {
+            let (p, _, _) = case(&mut rng, 20);
+            let big = 8 + (n % 24) as u32;
+            let a1: [i64; N] = core::array::from_fn(|i| {
+                let bits = if i == 2 { big } else { 12 };
+                rng.within((1 << bits) - 1)
+            });
+            let a2: [i64; N] = core::array::from_fn(|_| rng.within((1 << 14) - 1));
+            // Each `s` at least its largest `a`: a variance's share taken, as a real one.
+            let largest = |a: &[i64; N]| a.iter().map(|x| x.abs()).max().unwrap_or(0);
+            let s1 = largest(&a1) + rng.within(1 << 10).abs() + 1;
+            let s2 = largest(&a2) + rng.within(1 << 10).abs() + 1;
+            fine += usize::from(largest(&a1) > 1 << GAIN_SHIFT);
+            let (r1, r2) = (Reciprocal::of(s1).unwrap(), Reciprocal::of(s2).unwrap());
+            let mut q = p;
+            q.update_precise([(&a1, &r1), (&a2, &r2)]);
+            for i in 0..N {
+                for j in 0..N {
+                    let taken = (a1[i] as f64) * (a1[j] as f64) / s1 as f64
+                        + (a2[i] as f64) * (a2[j] as f64) / s2 as f64;
+                    let want = f64::from(p.m[i][j]) - taken;
+                    let got = f64::from(q.m[i][j]);
+                    assert!(
+                        (got - want).abs() <= 1.0 + taken.abs() / f64::from(1 << 30),
+                        "case {n} ({i}, {j}): {got} against {want}"
+                    );
+                }
+            }
+        }
+        assert!(fine > 10_000, "{fine}");
     }
 }

@@ -196,7 +196,8 @@ fn wide_mul_shift(a: i64, b: i64, shift: u32) -> i64 {
 }
 
 /// `p / 2^shift` rounded to nearest (a left shift for a shift below zero), saturating:
-/// the slow paths' common last step.
+/// the slow paths' common last step (out of line: 128-bit shifts are long on the M0+).
+#[inline(never)]
 fn round_shift_wide(p: i128, shift: i32) -> i64 {
     if shift <= 0 {
         saturate(p.saturating_mul(1i128 << (-shift).min(64)))
@@ -227,7 +228,7 @@ fn saturate(x: i128) -> i64 {
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub struct Reciprocal {
     /// About `2^61 / m`, where `s = m * 2^e` with `m` in `[2^30, 2^31)`: in
-    /// `(2^30, 2^31)`, within `2^-30` of it relatively.
+    /// `(2^30, 2^31)`, within a unit of it.
     inv: i32,
     /// `61 + e`: `x / s = x * inv / 2^shift`.
     shift: i32,
@@ -264,56 +265,57 @@ fn normalise(s: u64) -> (u32, i32) {
     (m, e as i32)
 }
 
-/// `2^30 / d` for `d = 1/2 + i / 128`, `i` from 0 to 64: [`Reciprocal::of`]'s first
-/// guesses, worked out at compile time.
-static RECIPROCAL_TABLE: [u32; 65] = {
-    let mut table = [0u32; 65];
+/// `2^30 / d` for `d = 1/2 + i / 512`, `i` from 0 to 256: [`Reciprocal::of`]'s first
+/// guesses, worked out at compile time (a kilobyte of flash: one Newton-Raphson step
+/// fewer in every division).
+static RECIPROCAL_TABLE: [u32; 257] = {
+    let mut table = [0u32; 257];
     let mut i = 0;
-    while i < 65 {
-        // 2^30 / (1/2 + i/128) = 2^37 / (64 + i).
-        table[i] = ((1u64 << 37) / (64 + i as u64)) as u32;
+    while i < 257 {
+        // 2^30 / (1/2 + i/512) = 2^39 / (256 + i).
+        table[i] = ((1u64 << 39) / (256 + i as u64)) as u32;
         i += 1;
     }
     table
 };
 
-/// `2^61 / m` for `m` in `[2^30, 2^31)`, within `2^-13` of it: [`RECIPROCAL_TABLE`]
-/// between its points, 2^24 of `m` apart.
+/// `2^61 / m` for `m` in `[2^30, 2^31)`, within `2^-17` of it: [`RECIPROCAL_TABLE`]
+/// between its points, 2^22 of `m` apart.
 fn reciprocal_guess(m: u32) -> u32 {
-    let index = ((m >> 24) - 64) as usize;
-    let frac = (m >> 8) & 0xFFFF;
+    let index = ((m >> 22) - 256) as usize;
+    let frac = (m >> 6) & 0xFFFF;
     let at = |i: usize| RECIPROCAL_TABLE.get(i).copied().unwrap_or(1 << 30);
     let (lo, hi) = (at(index), at(index + 1));
-    // Neighbours differ by under 2^25: cut to 15 bits, times a 16-bit fraction, that
-    // fits 31 bits.
-    lo - ((((lo - hi) >> 10) * frac) >> 6)
+    // Neighbours differ by under 2^23: cut to 14 bits, times a 16-bit fraction, that
+    // fits 30 bits.
+    lo - ((((lo - hi) >> 9) * frac) >> 7)
 }
 
 impl Reciprocal {
     /// The reciprocal of `s`; `None` unless `s > 0`.
     ///
-    /// A table for the first 15 bits, then two Newton-Raphson steps of two 32-bit
-    /// multiplies each: no division (the M0+ has none, and a 64-bit one is a long library
+    /// A table for the first 17 bits, then a Newton-Raphson step of two 32-bit
+    /// multiplies: no division (the M0+ has none, and a 64-bit one is a long library
     /// loop).
     pub fn of(s: i64) -> Option<Reciprocal> {
         if s <= 0 {
             return None;
         }
-        let (m, e) = normalise(s as u64); // s = m 2^e, m in [2^30, 2^31)
-                                          // With d = m / 2^31 in [0.5, 1), 1 / d is x / 2^30. First guess from the table
-                                          // of 1 / d, linear between its 65 points (within 2^-13); each step squares the
-                                          // error.
-        let mut x = reciprocal_guess(m);
-        for _ in 0..2 {
-            // e = 1 - d x, in Q32 (the product d x is Q61: m is Q31, x is Q30).
-            let error = ((1u64 << 61) as i64 - wide_mul_unsigned(m, x) as i64) >> 29;
-            let step = wide_mul_unsigned(x, error.unsigned_abs() as u32) >> 32;
-            x = if error < 0 {
-                x - step as u32
-            } else {
-                x + step as u32
-            };
-        }
+        // s = m 2^e, m in [2^30, 2^31). With d = m / 2^31 in [0.5, 1), 1 / d is x / 2^30:
+        // first guessed from the table of 1 / d, linear between its 257 points (within
+        // 2^-17), then one step, which squares the error.
+        let (m, e) = normalise(s as u64);
+        let x = reciprocal_guess(m);
+        // e = 1 - d x, in Q40 (the product d x is Q61: m is Q31, x is Q30), under 2^24
+        // for a guess within 2^-17; the step x e rounded to nearest, so that the result
+        // is within about half a unit of its last place.
+        let error = ((1u64 << 61) as i64 - wide_mul_unsigned(m, x) as i64) >> 21;
+        let step = (wide_mul_unsigned(x, error.unsigned_abs() as u32) + (1 << 39)) >> 40;
+        let x = if error < 0 {
+            x - step as u32
+        } else {
+            x + step as u32
+        };
         Some(Reciprocal {
             inv: x.min(i32::MAX as u32) as i32,
             shift: 61 + e,
@@ -341,6 +343,21 @@ impl Reciprocal {
         round_mul_each(x, self.inv as u32, false, shift as u32, |v| {
             self.times(v, extra)
         })
+    }
+
+    /// `a * b / s`, rounded to nearest; saturating.
+    #[cold]
+    #[inline(never)]
+    pub fn times_product(&self, a: i64, b: i64) -> i64 {
+        match a.checked_mul(b) {
+            Some(p) => self.times(p, 0),
+            // Past 64 bits (only a filter lost past its variances' ceilings forms such a
+            // product): its top 94 bits, |p| < 2^126, and |q inv| < 2^125.
+            None => {
+                let q = (i128::from(a) * i128::from(b)) >> 32;
+                round_shift_wide(q * i128::from(self.inv), self.shift - 32)
+            }
+        }
     }
 
     #[cold]
@@ -430,6 +447,32 @@ mod tests {
             let extra = (r >> 40) as u32 % 40;
             let want: [i64; 6] = core::array::from_fn(|i| inv.times(v[i], extra));
             assert_eq!(inv.times_each(&v, extra), want, "{v:?} / {s} << {extra}");
+        }
+    }
+
+    /// The mantissa is `2^61 / m` to within about half a unit (the table's guess within
+    /// 2^-17, then one step), but where `2^61 / m` is `2^31`, past an `i32`.
+    #[test]
+    fn reciprocal_mantissa_is_within_half_a_unit() {
+        let mut x = 0x2F69_3A1C_5B0E_44D7u64;
+        let mantissas = (0..200_000u64).map(|n| match n % 4 {
+            0 => (1 << 30) + n,
+            1 => (1 << 31) - 1 - n,
+            _ => {
+                x = x.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+                (1 << 30) + (x >> 34)
+            }
+        });
+        for m in mantissas {
+            let r = Reciprocal::of(m as i64).unwrap();
+            assert_eq!(r.shift, 61, "{m}");
+            let want = (1u64 << 61) as f64 / m as f64;
+            let error = f64::from(r.inv) - want;
+            assert!(
+                error.abs() <= 0.55 || (r.inv == i32::MAX && want >= f64::from(i32::MAX)),
+                "{m}: {} against {want}",
+                r.inv
+            );
         }
     }
 

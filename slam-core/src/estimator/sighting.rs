@@ -51,7 +51,52 @@ fn normalised_square_q8(nu: i64, s: &Reciprocal) -> i64 {
     }
 }
 
+/// A predicted variance of the range, or of the bearing given the range (with their
+/// noise; position or heading units squared), past which the sighting's two updates are
+/// made in turn and to within a unit ([`Estimator::update_in_turn`]): 2^17, a range unsure
+/// by 23 mm, a bearing by 0.3 degrees. Below it the `P h`s are small enough for one pass
+/// in Q16.
+const IN_TURN_ABOVE: i64 = 1 << 17;
+
 impl Estimator {
+    /// The range's update and then the bearing's, each from the covariance the one
+    /// before left and each to within a unit
+    /// ([`super::covariance::Covariance::update_precise`]): for a
+    /// sighting whose range or bearing is so unsure that one pass, which conditions the
+    /// bearing on the range through a Q16 ratio and takes each product as a Q16 gain
+    /// times a `P h`, would leave the matrix units off where it takes away nearly all of
+    /// a large variance. Given the range's `P h` and `1 / s`, the tag's direction, one
+    /// over its range and the bearing's noise; returns both gains.
+    #[cold]
+    #[inline(never)]
+    fn update_in_turn(
+        &mut self,
+        a_range: &[i64; N],
+        inv_range: &Reciprocal,
+        (sin, cos): (i32, i32),
+        per_range: &Reciprocal,
+        r_bearing: i64,
+    ) -> [[i64; N]; 2] {
+        let none = ([0; N], Reciprocal::of(1).expect("1 is positive"));
+        let [k_range, _] = self
+            .p
+            .update_precise([(a_range, inv_range), (&none.0, &none.1)]);
+        let [_, across] = self.p.times_sight_rows(sin, cos);
+        let heading = self.p.column(State::Heading);
+        let mut a = per_range.times_each(&across, 12);
+        for (a, h) in a.iter_mut().zip(heading) {
+            *a -= h;
+        }
+        let h_across = [(State::X, -cos), (State::Y, sin)];
+        let s = (per_range.times(dot(&h_across, &a), 12) - a[State::Heading as usize])
+            .saturating_add(r_bearing);
+        let k_bearing = match Reciprocal::of(s) {
+            Some(inv) => self.p.update_precise([(&a, &inv), (&none.0, &none.1)])[0],
+            None => [0; N],
+        };
+        [k_range, k_bearing]
+    }
+
     /// Whether the last sighting was refused by the gate for its bearing alone: read at
     /// the range its listed place has from the believed position. A heading gone wrong
     /// does that to every tag; a tag moved from its place mostly shows in its range.
@@ -212,9 +257,12 @@ impl Estimator {
         }
         self.ungated = false;
 
-        let [k_range, k_bearing] = self
-            .p
-            .update([(&a_range, &inv_range), (&a_given, &inv_bearing)]);
+        let [k_range, k_bearing] = if s_range.max(s_bearing) > IN_TURN_ABOVE {
+            self.update_in_turn(&a_range, &inv_range, (sin, cos), &per_range, r_bearing)
+        } else {
+            self.p
+                .update([(&a_range, &inv_range), (&a_given, &inv_bearing)])
+        };
         let mut fine = mul_shift_each(&k_range, nu_range, GAIN_SHIFT - FINE_SHIFT);
         let by_bearing = mul_shift_each(&k_bearing, nu_bearing, GAIN_SHIFT - FINE_SHIFT);
         for (f, b) in fine.iter_mut().zip(by_bearing) {
