@@ -368,9 +368,9 @@ impl Covariance {
     /// which times an `a` past 2^16 is more than a unit. Where an update takes away
     /// nearly all of a large variance (a sighting with the heading barely known, after a
     /// stale gyro or a forgotten heading) such units leave the matrix indefinite; here an
-    /// `a` past 2^16 has its gains worked out to as many more bits as it has. For the
-    /// updates whose `P h` may be that large: `update` is the one the step's worst case
-    /// pays for.
+    /// `a` past 2^16 has its gains worked out to as many more bits as it needs. Called
+    /// where the `P h`s may be that large; the converged filter's updates, the step's
+    /// worst case, call `update` and pay nothing for the check.
     #[inline(never)]
     pub fn update_precise(&mut self, updates: [(&[i64; N], &Reciprocal); 2]) -> [[i64; N]; 2] {
         let [(a1, s1), (a2, s2)] = updates;
