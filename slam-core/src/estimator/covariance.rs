@@ -373,16 +373,13 @@ impl Covariance {
     /// worst case, call `update` and pay nothing for the check.
     #[inline(never)]
     pub fn update_precise(&mut self, updates: [(&[i64; N], &Reciprocal); 2]) -> [[i64; N]; 2] {
-        let [(a1, s1), (a2, s2)] = updates;
+        let [(a1, _), (a2, _)] = updates;
         match (narrow(a1), narrow(a2)) {
             (Some(n1), Some(n2)) if max_abs(&n1).max(max_abs(&n2)) > 1 << GAIN_SHIFT => {
                 self.update_fine(updates, [&n1, &n2])
             }
             (Some(_), Some(_)) => self.update(updates),
-            _ => {
-                self.update_exact(updates);
-                [s1.times_each(a1, GAIN_SHIFT), s2.times_each(a2, GAIN_SHIFT)]
-            }
+            _ => self.update_exact(updates),
         }
     }
 
@@ -479,8 +476,7 @@ impl Covariance {
         let shift = 34 - largest.leading_zeros();
         let (f1, f2) = (s1.times_each(a1, shift), s2.times_each(a2, shift));
         let (Some(k1), Some(k2)) = (narrow(&f1), narrow(&f2)) else {
-            self.update_exact(updates);
-            return [s1.times_each(a1, GAIN_SHIFT), s2.times_each(a2, GAIN_SHIFT)];
+            return self.update_exact(updates);
         };
         for i in 0..N {
             for j in i..N {
@@ -497,10 +493,10 @@ impl Covariance {
     /// [`Covariance::update`]'s `P - a1 a1^T / s1 - a2 a2^T / s2` from each product
     /// `a_i a_j` whole, divided once: for an `a` past 32 bits, where a gain times it is
     /// far past the products' 64 bits (only a filter lost far past the variances'
-    /// ceilings has one).
+    /// ceilings has one). Returns the gains in Q16, as `update` does.
     #[cold]
     #[inline(never)]
-    fn update_exact(&mut self, updates: [(&[i64; N], &Reciprocal); 2]) {
+    fn update_exact(&mut self, updates: [(&[i64; N], &Reciprocal); 2]) -> [[i64; N]; 2] {
         for i in 0..N {
             for j in i..N {
                 let d = updates.iter().fold(0i64, |d, (a, s)| {
@@ -511,6 +507,7 @@ impl Covariance {
                 self.m[j][i] = v;
             }
         }
+        updates.map(|(a, s)| s.times_each(a, GAIN_SHIFT))
     }
 
     #[cold]

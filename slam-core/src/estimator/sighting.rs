@@ -51,6 +51,24 @@ fn normalised_square_q8(nu: i64, s: &Reciprocal) -> i64 {
     }
 }
 
+/// The bearing's `P h^T`: the row across the line of sight's (`across`) over the range,
+/// less the heading's column.
+#[inline(always)]
+fn bearing_p_h(across: &[i64; N], heading: [i64; N], per_range: &Reciprocal) -> [i64; N] {
+    let mut a = per_range.times_each(across, 12);
+    for (a, h) in a.iter_mut().zip(heading) {
+        *a -= h;
+    }
+    a
+}
+
+/// The bearing's row times `a`: the unit row across the line of sight, `h_across`, over
+/// the range, less the heading.
+#[inline(always)]
+fn bearing_of(a: &[i64; N], h_across: &[(State, i32); 2], per_range: &Reciprocal) -> i64 {
+    per_range.times(dot(h_across, a), 12) - a[State::Heading as usize]
+}
+
 /// A predicted variance of the range, or of the bearing given the range (with their
 /// noise; position or heading units squared), past which the sighting's two updates are
 /// made in turn and to within a unit ([`Estimator::update_in_turn`]): 2^17, a range unsure
@@ -77,21 +95,18 @@ impl Estimator {
         per_range: &Reciprocal,
         r_bearing: i64,
     ) -> [[i64; N]; 2] {
-        let none = ([0; N], Reciprocal::of(1).expect("1 is positive"));
+        // Each update alone: the pair's second is a zero `P h`, which takes nothing
+        // whatever it is divided by.
+        let none = [0; N];
         let [k_range, _] = self
             .p
-            .update_precise([(a_range, inv_range), (&none.0, &none.1)]);
+            .update_precise([(a_range, inv_range), (&none, inv_range)]);
         let [_, across] = self.p.times_sight_rows(sin, cos);
-        let heading = self.p.column(State::Heading);
-        let mut a = per_range.times_each(&across, 12);
-        for (a, h) in a.iter_mut().zip(heading) {
-            *a -= h;
-        }
+        let a = bearing_p_h(&across, self.p.column(State::Heading), per_range);
         let h_across = [(State::X, -cos), (State::Y, sin)];
-        let s = (per_range.times(dot(&h_across, &a), 12) - a[State::Heading as usize])
-            .saturating_add(r_bearing);
+        let s = bearing_of(&a, &h_across, per_range).saturating_add(r_bearing);
         let k_bearing = match Reciprocal::of(s) {
-            Some(inv) => self.p.update_precise([(&a, &inv), (&none.0, &none.1)])[0],
+            Some(inv) => self.p.update_precise([(&a, &inv), (&none, &inv)])[0],
             None => [0; N],
         };
         [k_range, k_bearing]
@@ -203,8 +218,6 @@ impl Estimator {
         let h_range = [(State::X, -sin), (State::Y, -cos)];
         let h_across = [(State::X, -cos), (State::Y, sin)];
         let range_of = |a: &[i64; N]| dot(&h_range, a);
-        let bearing_of =
-            |a: &[i64; N]| per_range.times(dot(&h_across, a), 12) - a[State::Heading as usize];
 
         // Range noise in position units: a constant part and a per-mille part.
         let noise = &self.sighting_noise;
@@ -227,14 +240,10 @@ impl Estimator {
         let r_bearing = square(mul_shift(noise.bearing_sigma, cos2, 16)).max(1);
 
         let [a_range, across] = self.p.times_sight_rows(sin, cos);
-        let heading = self.p.column(State::Heading);
-        let mut a_bearing = per_range.times_each(&across, 12);
-        for (a, h) in a_bearing.iter_mut().zip(heading) {
-            *a -= h;
-        }
+        let a_bearing = bearing_p_h(&across, self.p.column(State::Heading), &per_range);
         let s_range = range_of(&a_range).saturating_add(r_range);
         let s_cross = range_of(&a_bearing);
-        let s_bearing = bearing_of(&a_bearing).saturating_add(r_bearing);
+        let s_bearing = bearing_of(&a_bearing, &h_across, &per_range).saturating_add(r_bearing);
         let Some(inv_range) = Reciprocal::of(s_range) else {
             return Err(TagRefusal::Gate);
         };
