@@ -409,7 +409,7 @@ impl Run<'_> {
 /// Every field of the robot's `Tick` but its time against the replay's.
 fn compare_tick(c: &mut BitForBit, robot: &Tick, replay: &Tick) {
     let (a, b) = (&robot.counters, &replay.counters);
-    let fields: [(&str, i64, i64); 16] = [
+    let fields: [(&str, i64, i64); 18] = [
         ("x_um", robot.x_um.into(), replay.x_um.into()),
         ("y_um", robot.y_um.into(), replay.y_um.into()),
         (
@@ -448,6 +448,16 @@ fn compare_tick(c: &mut BitForBit, robot: &Tick, replay: &Tick) {
             "counters.relocalisations",
             a.relocalisations.into(),
             b.relocalisations.into(),
+        ),
+        (
+            "counters.pictures_repeated",
+            a.pictures_repeated.into(),
+            b.pictures_repeated.into(),
+        ),
+        (
+            "counters.pictures_leapt",
+            a.pictures_leapt.into(),
+            b.pictures_leapt.into(),
         ),
         (
             "counters.beams_mapped",

@@ -80,12 +80,12 @@ const OTHER_WINDOWS: [(f64, &str, &[&str]); 4] = [
     (
         12.0,
         "driving up the mat towards the tags",
-        &["camera-wrong", "camera-slow"],
+        &["camera-slow"],
     ),
     (
         20.0,
         "the second turn on the spot, starting with the tags in view",
-        &["camera-stuck"],
+        &[],
     ),
     (
         28.0,
@@ -101,7 +101,7 @@ const OTHER_WINDOWS: [(f64, &str, &[&str]); 4] = [
     (
         40.0,
         "the third turn on the spot, the tags leaving the depth sensor's fan",
-        &["camera-stuck"],
+        &[],
     ),
 ];
 

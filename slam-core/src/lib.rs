@@ -12,6 +12,7 @@
 #![warn(missing_docs)]
 
 pub mod angle;
+pub mod camera_check;
 pub mod commanded;
 pub mod depth_step;
 pub mod estimator;

@@ -1,6 +1,7 @@
 //! The SLAM loop: one pure `step` per tick, called alike by the firmware and the simulator.
 
 use crate::angle::Angle;
+use crate::camera_check::CameraCheck;
 use crate::estimator::{
     Estimate, Estimator, EstimatorConfig, MapUncertainty, MatchCounters, MatchNoise, TagCounters,
     TagRefusal,
@@ -193,6 +194,12 @@ pub struct Counters {
     /// Fixes taken against the gate after too many rejections in a row, or (the filter)
     /// times the heading was forgotten for them ([`crate::Estimator::forget_heading`]).
     pub relocalisations: u32,
+    /// Pictures refused whole for repeating the last one bit for bit
+    /// ([`crate::camera_check`]).
+    pub pictures_repeated: u32,
+    /// Pictures the gate refused whose refusals began with a leap: they do not count
+    /// towards forgetting the heading ([`crate::camera_check`]).
+    pub pictures_leapt: u32,
     /// Beams written into the map.
     pub beams_mapped: u32,
     /// Beams with no valid return, skipped.
@@ -286,6 +293,8 @@ pub struct Slam<const W: usize, const H: usize> {
     /// Whether a tag the filter's gate refused since it last took one was refused at a
     /// range its listed place does not have.
     refused_off_range: bool,
+    /// The camera held to itself: pictures given again, sightings that leap.
+    camera: CameraCheck,
     estimator: Estimator,
     /// The scans of the last second, not yet in the map ([`SlamConfig::matching`]).
     #[cfg(feature = "matching")]
@@ -324,6 +333,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             counters: Counters::default(),
             gate_rejections_in_a_row: 0,
             refused_off_range: false,
+            camera: CameraCheck::new(&config.fix.leap),
             estimator: Estimator::new(config.estimator),
             #[cfg(feature = "matching")]
             sweep: Sweep::new(),
@@ -356,6 +366,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         self.counters = Counters::default();
         self.gate_rejections_in_a_row = 0;
         self.refused_off_range = false;
+        self.camera = CameraCheck::new(&self.config.fix.leap);
         self.estimator = Estimator::new(self.config.estimator);
         #[cfg(feature = "matching")]
         self.sweep.clear();
@@ -570,6 +581,13 @@ impl<const W: usize, const H: usize> Slam<W, H> {
     /// turn, but for rounding, for half the work with two tags in view).
     fn filter_tags(&mut self, frame: &SensorFrame) -> FixOutcome {
         let mut outcome = FixOutcome::NotAttempted;
+        if self.camera.repeated(&frame.tags) {
+            self.counters.pictures_repeated += 1;
+            self.estimator.settle();
+            return outcome;
+        }
+        // Whether every sighting the gate refused leapt ([`CameraCheck::leaps`]).
+        let mut leapt = true;
         // The picture's pose before the first taken update and after the latest.
         let mut carried: Option<(Pose, Pose)> = None;
         for detection in frame.tags.iter() {
@@ -591,6 +609,9 @@ impl<const W: usize, const H: usize> Slam<W, H> {
                 }
                 Err(TagRefusal::Gate) => {
                     self.refused_off_range |= !self.estimator.refused_at_its_range();
+                    leapt &= self
+                        .camera
+                        .leaps(self.estimator.refused_by(), self.counters.ticks);
                     if outcome != FixOutcome::Taken {
                         outcome = FixOutcome::Rejected(FixRejection::Gate);
                     }
@@ -611,16 +632,22 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         // A filter sure of its pose whose every sighting the gate refuses, picture after
         // picture, each at the range its tag should have (a tag moved from its place
         // shows in its range), is sure of a heading that is not the robot's: it forgets
-        // the heading, as the fix relocalises.
+        // the heading, as the fix relocalises; unless the refusals began with a leap
+        // ([`crate::camera_check`]).
         match outcome {
             FixOutcome::Taken => {
                 self.counters.fixes_taken += 1;
+                self.camera.taken(self.counters.ticks);
                 self.gate_rejections_in_a_row = 0;
                 self.refused_off_range = false;
             }
             FixOutcome::Rejected(FixRejection::Gate) => {
                 self.counters.fixes_rejected_gate += 1;
-                self.gate_rejections_in_a_row = self.gate_rejections_in_a_row.saturating_add(1);
+                if self.camera.refused(leapt) {
+                    self.gate_rejections_in_a_row = self.gate_rejections_in_a_row.saturating_add(1);
+                } else {
+                    self.counters.pictures_leapt += 1;
+                }
                 let limit = self.config.fix.relocalise_after;
                 if limit != 0
                     && self.gate_rejections_in_a_row > limit
@@ -629,6 +656,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
                 {
                     self.counters.relocalisations += 1;
                     self.gate_rejections_in_a_row = 0;
+                    self.camera.relocalised();
                 }
             }
             FixOutcome::Rejected(FixRejection::TooOld) => self.counters.fixes_rejected_too_old += 1,

@@ -5,6 +5,7 @@
 //! tag's range and bearing gives the position; we average the two.
 
 use crate::angle::{sin_cos_of_vector, Angle, Direction};
+use crate::camera_check::LeapLimit;
 use crate::frame::TagDetection;
 use crate::pose::{hypot, mul_q16_32, Pose, UM_PER_MM};
 
@@ -117,6 +118,10 @@ pub struct FixConfig {
     /// gate refused, and past this many in a row may forget its heading instead
     /// ([`crate::Estimator::forget_heading`]).
     pub relocalise_after: u8,
+    /// How far the first sighting refused after one taken may be off before the refusals
+    /// are the camera's leap and never make the filter forget its heading
+    /// ([`crate::camera_check`]).
+    pub leap: LeapLimit,
 }
 
 impl FixConfig {
@@ -128,6 +133,7 @@ impl FixConfig {
         gate_position_mm: 300,
         gate_heading_mdeg: 20_000,
         relocalise_after: 5,
+        leap: LeapLimit::SEED,
     };
 }
 

@@ -615,3 +615,14 @@ fn unchecked(config: slam_core::SlamConfig) -> slam_core::SlamConfig {
         ..config
     }
 }
+
+/// A run whose camera gives one picture twice in a row (seed 1520964776337080459, tick 23:
+/// the same column and distance, as rounding to whole hundredths of a pixel and whole
+/// millimetres sometimes makes them): the core skips the second, and so does the
+/// reference; the two stay together.
+#[test]
+fn a_picture_given_twice_is_skipped_by_both() {
+    let seed = 1_520_964_776_337_080_459;
+    let apart = run_beside_reference(seed, EstimatorConfig::SEED, Sensors::SEED).unwrap();
+    assert!(apart.position <= 0.6, "{apart:?}");
+}

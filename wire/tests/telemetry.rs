@@ -97,6 +97,8 @@ fn tick() -> Message {
             fixes_rejected_gate: 2,
             fixes_rejected_too_old: 3,
             relocalisations: 0,
+            pictures_repeated: 4,
+            pictures_leapt: 5,
             beams_mapped: 1000,
             beams_invalid: 96,
             flow_stale: 3,
@@ -240,7 +242,7 @@ fn health_frame_fixture() {
         gyro_start_failures: 2,
         ..SensorHealth::default()
     });
-    let stuffed = sealed(&[0xB9, 3, 0, 1, 0xAC, 0x02, 0, 0, 0, 0, 0, 0, 0, 0, 2]);
+    let stuffed = sealed(&[0xBA, 3, 0, 1, 0xAC, 0x02, 0, 0, 0, 0, 0, 0, 0, 0, 2]);
     assert_eq!(frame(&h), stuffed);
     // No zero before the delimiter.
     assert!(!stuffed[..stuffed.len() - 1].contains(&0));
@@ -273,7 +275,7 @@ fn filter_frame_fixture() {
         },
     });
     let raw = [
-        0xB9, 4, 2, 0xD8, 0x04, 1, 0, 0, 0, 0x80, 0x80, 0x08, 3, 0, 0x80, 0x01, 5, 0, 0, 1, 0, 2,
+        0xBA, 4, 2, 0xD8, 0x04, 1, 0, 0, 0, 0x80, 0x80, 0x08, 3, 0, 0x80, 0x01, 5, 0, 0, 1, 0, 2,
     ];
     assert_eq!(frame(&m), sealed(&raw));
     assert_eq!(decode_all(&sealed(&raw)).0, std::vec![Ok(m)]);
@@ -319,7 +321,7 @@ fn refuses_hello_with(changes: &[(usize, u8)]) {
         let mut body = hello_body(&hello());
         let at = body.len() - from_end;
         body[at] = bad;
-        let mut raw = std::vec![0xB9];
+        let mut raw = std::vec![0xBA];
         raw.extend(body);
         assert_eq!(
             decode_all(&sealed(&raw)).0,
@@ -362,7 +364,7 @@ fn inputs_frame_fixture() {
         time_ms: 2,
         frame: SensorFrame::empty(3),
     });
-    let raw = [0xB9, 5, 1, 2, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0];
+    let raw = [0xBA, 5, 1, 2, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0];
     assert_eq!(frame(&m), sealed(&raw));
     assert_eq!(decode_all(&sealed(&raw)).0, std::vec![Ok(m)]);
     // The depth task found the scan late: doubt code 8 after the depth's age; a code no
@@ -375,10 +377,10 @@ fn inputs_frame_fixture() {
             ..SensorFrame::empty(3)
         },
     });
-    let raw = [0xB9, 5, 1, 2, 3, 0, 0, 0, 0, 8, 0, 0, 0, 0];
+    let raw = [0xBA, 5, 1, 2, 3, 0, 0, 0, 0, 8, 0, 0, 0, 0];
     assert_eq!(frame(&m), sealed(&raw));
     assert_eq!(decode_all(&sealed(&raw)).0, std::vec![Ok(m)]);
-    let raw = [0xB9, 5, 1, 2, 3, 0, 0, 0, 0, 9, 0, 0, 0, 0];
+    let raw = [0xBA, 5, 1, 2, 3, 0, 0, 0, 0, 9, 0, 0, 0, 0];
     assert_eq!(
         decode_all(&sealed(&raw)).0,
         std::vec![Err(FrameError::Body)]
@@ -400,7 +402,7 @@ fn inputs_frame_fixture() {
         },
     });
     let raw = [
-        0xB9, 5, 1, 2, 3, 0, 1, 10, 0, 0, 0, 1, 11, 1, 0xAC, 0x02, 0, 0, 0,
+        0xBA, 5, 1, 2, 3, 0, 1, 10, 0, 0, 0, 1, 11, 1, 0xAC, 0x02, 0, 0, 0,
     ];
     assert_eq!(frame(&m), sealed(&raw));
     // Commanded 86 mm/s (zigzag 172) and -31.5 deg/s (zigzag 62,999).
@@ -416,7 +418,7 @@ fn inputs_frame_fixture() {
         },
     });
     let raw = [
-        0xB9, 5, 1, 2, 3, 0, 0, 0, 0, 0, 0, 0, 0, 1, 0xAC, 0x01, 0x97, 0xEC, 0x03,
+        0xBA, 5, 1, 2, 3, 0, 0, 0, 0, 0, 0, 0, 0, 1, 0xAC, 0x01, 0x97, 0xEC, 0x03,
     ];
     assert_eq!(frame(&m), sealed(&raw));
     assert_eq!(decode_all(&sealed(&raw)).0, std::vec![Ok(m)]);
@@ -424,7 +426,7 @@ fn inputs_frame_fixture() {
 
 #[test]
 fn inputs_with_more_tags_than_the_core_holds_are_refused() {
-    let mut raw = std::vec![0xB9, 5, 1, 2, 3, 0, 0, 0, 0, 0];
+    let mut raw = std::vec![0xBA, 5, 1, 2, 3, 0, 0, 0, 0, 0];
     raw.push(u8::try_from(MAX_TAGS + 1).unwrap_or(u8::MAX));
     for _ in 0..=MAX_TAGS {
         raw.extend([1, 0, 0]);
@@ -435,7 +437,7 @@ fn inputs_with_more_tags_than_the_core_holds_are_refused() {
         std::vec![Err(FrameError::Body)]
     );
     // The same with the most it holds decodes.
-    let mut raw = std::vec![0xB9, 5, 1, 2, 3, 0, 0, 0, 0, 0];
+    let mut raw = std::vec![0xBA, 5, 1, 2, 3, 0, 0, 0, 0, 0];
     raw.push(u8::try_from(MAX_TAGS).unwrap_or(u8::MAX));
     for _ in 0..MAX_TAGS {
         raw.extend([1, 0, 0]);
@@ -505,6 +507,8 @@ fn worst_case_messages_fit() {
             fixes_rejected_gate: u32::MAX,
             fixes_rejected_too_old: u32::MAX,
             relocalisations: u32::MAX,
+            pictures_repeated: u32::MAX,
+            pictures_leapt: u32::MAX,
             beams_mapped: u32::MAX,
             beams_invalid: u32::MAX,
             flow_stale: u32::MAX,
@@ -571,7 +575,7 @@ fn worst_case_messages_fit() {
     for (m, limit) in [
         (big, 142),
         (worst_inputs(), MAX_FRAME_LEN),
-        (worst_tick, 119),
+        (worst_tick, 127),
         (worst_filter, 116),
         (Message::Health(all_max), 66),
         (worst_hello, 39),
@@ -601,7 +605,7 @@ fn garbage_between_frames_resynchronises() {
     bytes.extend([1, 2, 3, 4, 5, 0]);
     bytes.extend(frame(&tick()));
     bytes.extend([0, 0, 0]); // empty frames: ignored
-    bytes.extend([0xB9, 0x07, 0]); // stuffing that runs past the end
+    bytes.extend([0xBA, 0x07, 0]); // stuffing that runs past the end
     bytes.extend(frame(&health()));
     let (out, stats) = decode_all(&bytes);
     let good: Vec<Message> = out.iter().filter_map(|r| r.clone().ok()).collect();
@@ -674,13 +678,13 @@ fn wrong_version_and_bad_body_are_told_apart() {
     }
 
     for raw in [
-        std::vec![0xB9, 9],                                        // no such variant
-        std::vec![0xB9, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0],             // health cut short
-        std::vec![0xB9, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 7], // a byte left over
-        std::vec![0xB9, 2, 0, 0, 0x81, 0x01],                      // 129 cells announced
-        std::vec![0xB9, 4, 1, 0, 0, 0, 0, 0],                      // filter cut short
-        std::vec![0xB9, 5, 1, 2, 3, 0, 0, 0],                      // inputs cut short
-        std::vec![0xB9, 5, 1, 2, 3, 2],                            // flow option byte 2
+        std::vec![0xBA, 9],                                        // no such variant
+        std::vec![0xBA, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0],             // health cut short
+        std::vec![0xBA, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 7], // a byte left over
+        std::vec![0xBA, 2, 0, 0, 0x81, 0x01],                      // 129 cells announced
+        std::vec![0xBA, 4, 1, 0, 0, 0, 0, 0],                      // filter cut short
+        std::vec![0xBA, 5, 1, 2, 3, 0, 0, 0],                      // inputs cut short
+        std::vec![0xBA, 5, 1, 2, 3, 2],                            // flow option byte 2
     ] {
         assert_eq!(
             decode_all(&sealed(&raw)).0,
@@ -975,7 +979,7 @@ proptest! {
     #[test]
     fn arbitrary_ticks_round_trip(
         v in proptest::array::uniform17(any::<u32>()),
-        w in proptest::array::uniform4(any::<u32>()),
+        w in proptest::array::uniform6(any::<u32>()),
         fix in 0u8..5,
         stale in any::<u8>(),
         doubts in any::<u16>(),
@@ -999,6 +1003,7 @@ proptest! {
                 fixes_rejected_gate: v[9], fixes_rejected_too_old: v[16], relocalisations: v[10], beams_mapped: v[11],
                 beams_invalid: v[12], flow_stale: v[13], gyro_stale: v[14], depth_stale: v[15],
                 gyro_doubted: w[0], flow_doubted: w[1], depth_doubted: w[2], scans_withheld: w[3],
+                pictures_repeated: w[4], pictures_leapt: w[5],
             },
         };
         // Noise, a delimiter, then the frame: the frame always comes through.

@@ -76,6 +76,9 @@ pub struct Estimator {
     /// Whether the last sighting was refused by the gate at its range
     /// ([`Estimator::refused_at_its_range`]).
     pub(super) refused_at_its_range: bool,
+    /// The last sighting the gate refused: its bearing and range innovations
+    /// ([`Estimator::refused_by`]).
+    pub(super) refused_by: (i32, i32),
 }
 
 impl Estimator {
@@ -106,6 +109,7 @@ impl Estimator {
             settle_fully: 0,
             ungated: false,
             refused_at_its_range: false,
+            refused_by: (0, 0),
         };
         e.settle();
         e

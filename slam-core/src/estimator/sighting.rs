@@ -119,6 +119,12 @@ impl Estimator {
         self.refused_at_its_range
     }
 
+    /// The bearing (heading units, given the range) and range (position units)
+    /// innovations of the last sighting the gate refused.
+    pub fn refused_by(&self) -> (i32, i32) {
+        self.refused_by
+    }
+
     /// Updates the filter from one detection of `tag` (`None`: an id not in the map),
     /// seen from `then`, the pose believed when the picture was taken (`None`: older
     /// than the history). Returns the corrected pose of that moment, or why the
@@ -192,12 +198,14 @@ impl Estimator {
         // refused outright, as the gate would refuse it.
         let off_centre = i64::from(detection.cx_centipx) - i64::from(camera.centre_centipx);
         if off_centre.unsigned_abs() > 2 * u64::from(camera.centre_centipx.unsigned_abs()) {
+            self.refused_by = (i32::MAX, i32::MAX);
             return Err(TagRefusal::Gate);
         }
         let (sin_m, cos_m) = camera.ray(detection.cx_centipx);
         let sin_nu = i64::from(mul_q16_32(sin_m, cos_b) - mul_q16_32(cos_m, sin_b));
         let cos_nu = mul_q16_32(cos_m, cos_b) + mul_q16_32(sin_m, sin_b);
         if cos_nu <= 0 {
+            self.refused_by = (i32::MAX, clamp(nu_range));
             return Err(TagRefusal::Gate);
         }
         let nu_bearing = if sin_nu.abs() < ASIN_SERIES_BELOW {
@@ -262,6 +270,7 @@ impl Estimator {
         let chi2 = range_chi2.saturating_add(normalised_square_q8(nu_bearing, &inv_bearing));
         if chi2 > i64::from(cfg.gate_chi2_q8) && !self.ungated {
             self.refused_at_its_range = range_chi2 <= RANGE_AGREES_CHI2_Q8;
+            self.refused_by = (clamp(nu_bearing), clamp(nu_range));
             return Err(TagRefusal::Gate);
         }
         self.ungated = false;

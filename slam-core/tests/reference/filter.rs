@@ -18,7 +18,7 @@
 use super::{heading_of, nose, right, wrap, CENTRE_PX, FOCAL_PX};
 use slam_core::estimator::config::STALE_PERIOD_US;
 use slam_core::history::HISTORY_LEN;
-use slam_core::{EstimatorConfig, OdometryConfig, SensorFrame, TagMap};
+use slam_core::{EstimatorConfig, OdometryConfig, SensorFrame, TagDetections, TagMap};
 
 /// Number of states.
 pub const N: usize = 6;
@@ -515,6 +515,9 @@ pub struct RefFilter {
     pub counts: Counts,
     /// The last ticks' poses, newest last, each with the time since the one before, us.
     history: Vec<(FPose, u32)>,
+    /// The last picture with sightings in it: one given again is skipped, as the core
+    /// skips it (`slam_core::camera_check`).
+    last_picture: Option<TagDetections>,
 }
 
 impl RefFilter {
@@ -533,6 +536,7 @@ impl RefFilter {
             p: initial(&config),
             counts: Counts::default(),
             history: vec![(start, 0)],
+            last_picture: None,
         }
     }
 
@@ -583,6 +587,12 @@ impl RefFilter {
             self.history.remove(0);
         }
         predict(&mut self.p, &self.config, &m);
+        if !frame.tags.is_empty() {
+            if self.last_picture.as_ref() == Some(&frame.tags) {
+                return;
+            }
+            self.last_picture = Some(frame.tags.clone());
+        }
         for d in frame.tags.iter() {
             let outcome = self.sight_one(d.id, d.cx_centipx, d.distance_mm, frame.tags_age_us);
             let c = &mut self.counts;

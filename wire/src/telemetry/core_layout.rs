@@ -40,6 +40,8 @@ pub(crate) struct CountersDef {
     fixes_rejected_gate: u32,
     fixes_rejected_too_old: u32,
     relocalisations: u32,
+    pictures_repeated: u32,
+    pictures_leapt: u32,
     beams_mapped: u32,
     beams_invalid: u32,
     flow_stale: u32,

@@ -17,7 +17,7 @@
 //! COBS( VERSION | postcard(Message) | CRC16_LE ) | 0x00
 //! ```
 //!
-//! - `VERSION` is one byte, [`WIRE_VERSION`] (`0xB9`: BugBot telemetry, layout 9). A
+//! - `VERSION` is one byte, [`WIRE_VERSION`] (`0xBA`: BugBot telemetry, layout 10). A
 //!   receiver drops frames with any other value.
 //! - `postcard(Message)` is the [postcard 1.x] encoding of [`Message`]: integers `u16`,
 //!   `u32`, `i32` are LEB128 varints (signed ones zigzag-mapped first), `u8` and `i8` are
@@ -58,11 +58,11 @@
 //!
 //! The longest frame is [`MAX_FRAME_LEN`] (213) bytes, a full `Inputs`. On the seed's
 //! 46 x 46 grid at 10 Hz with [`Schedule::DEFAULT`]: a `MapRows` of two rows (92 cells)
-//! is 101 bytes a tick, an `Inputs` at most 213, a `Tick` at most 119, a `Filter` at most
+//! is 101 bytes a tick, an `Inputs` at most 213, a `Tick` at most 127, a `Filter` at most
 //! 116, a `Health` at most 66 once a second and a `Hello` at most 37 every 5 s (the tests
-//! check each bound). That is at most 10 x (101 + 213 + 119 + 116) + 66 + 8 = 5,564
+//! check each bound). That is at most 10 x (101 + 213 + 127 + 116) + 66 + 8 = 5,644
 //! bytes/s, and the whole map refreshes every 2.3 s. The firmware sends two chunks a
-//! tick: at most 6,573 bytes/s, 7.1 % of its 921,600 baud 8N1 UART (92,160 bytes/s), of
+//! tick: at most 6,653 bytes/s, 7.2 % of its 921,600 baud 8N1 UART (92,160 bytes/s), of
 //! which the inputs are 2,130 bytes/s (2.3 %). Without them (`inputs: false`) a run cannot
 //! be replayed, but the stream is a third shorter.
 //!
@@ -93,7 +93,7 @@ pub use message::{
 };
 pub use stream::{encode, EncodeError, Schedule, Streamer};
 
-/// The first byte of every frame: `0xB9`, BugBot telemetry layout 9.
+/// The first byte of every frame: `0xBA`, BugBot telemetry layout 10.
 ///
 /// Bumped whenever the layout changes, so an old viewer drops new frames instead of
 /// misreading them. Layout 2 added the start-up failure counts to `Health`; layout 3 the
@@ -102,8 +102,9 @@ pub use stream::{encode, EncodeError, Schedule, Streamer};
 /// their counters to `Tick`, and the `Hello`'s boot (reset cause, resumed or not); layout
 /// 7 the commanded motion to `Inputs` (and doubt code 6 to `Tick`); layout 8 whether the
 /// `Hello`'s filter matches scans against the map; layout 9 the depth scan's own doubt to
-/// `Inputs` (and doubt codes 7 and 8 to `Tick`).
-pub const WIRE_VERSION: u8 = 0xB9;
+/// `Inputs` (and doubt codes 7 and 8 to `Tick`); layout 10 the counts of pictures
+/// repeated and leapt to `Tick`'s counters.
+pub const WIRE_VERSION: u8 = 0xBA;
 
 /// Most cells one [`MapRows`] carries: two rows of the seed's 46-cell grid fit, and the
 /// frame stays under 150 bytes (1.6 ms at 921,600 baud).

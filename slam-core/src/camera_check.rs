@@ -1,0 +1,208 @@
+//! The camera held to itself: a picture given again, and sightings that leap.
+//!
+//! The filter's gate refuses a sighting far from its prediction, and a filter whose every
+//! sighting is refused for a few pictures in a row forgets its heading
+//! ([`crate::Estimator::forget_heading`]): its own drift is then the likelier cause. A
+//! camera that starts lying (a tag put at the wrong column, pictures that come late) is
+//! refused by the same gate, and forgetting the heading would hand the pose to the lie.
+//! What tells the two apart is how the refusals begin. An estimate that drifts off makes
+//! its sightings creep past the gate, a little further each picture; a camera that starts
+//! lying moves them at once, further than the odometry can have drifted since the last
+//! sighting taken. A run of refusals that begins with such a leap never counts towards
+//! forgetting the heading; it ends when a sighting is taken again.
+//!
+//! A picture whose sightings repeat the last picture's bit for bit says nothing new (a
+//! camera stuck on one frame, or one picture handed over twice): it is refused whole,
+//! before the filter sees it, so no sighting is counted twice.
+
+use crate::estimator::units;
+use crate::frame::TagDetections;
+
+/// How far the first refused sighting after one taken may be from its prediction and
+/// still be the estimate's drift rather than the camera's leap.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct LeapLimit {
+    /// The bearing innovation (given the range) allowed at once, millidegrees.
+    pub bearing_mdeg: u32,
+    /// And more for each tick since the last sighting taken.
+    pub bearing_mdeg_per_tick: u32,
+    /// The range innovation allowed at once, millimetres.
+    pub range_mm: u32,
+    /// And more for each tick since the last sighting taken.
+    pub range_mm_per_tick: u32,
+}
+
+impl LeapLimit {
+    /// 3 degrees covers a sighting just past the gate of a filter unsure of its heading
+    /// by most of a degree; 5 degrees a second is more than any gyro the core still
+    /// trusts can drift (its reading is held to the motors' command within 2 degrees a
+    /// second in a turn), and more than the 3 degrees a second of the bias jump that
+    /// forgetting the heading recovers from when the command is not known. The range:
+    /// 20 mm covers its noise at the camera's reach, and 20 mm a second is a quarter of
+    /// the drive's speed, far beyond the flow's scale error.
+    pub const SEED: LeapLimit = LeapLimit {
+        bearing_mdeg: 3_000,
+        bearing_mdeg_per_tick: 500,
+        range_mm: 20,
+        range_mm_per_tick: 2,
+    };
+}
+
+/// What the core remembers of the camera to hold it to itself.
+#[derive(Clone, Copy, Debug)]
+pub struct CameraCheck {
+    /// The limit in the filter's units: heading units and position units, at once and
+    /// per tick.
+    bearing: i64,
+    bearing_per_tick: i64,
+    range: i64,
+    range_per_tick: i64,
+    /// A fingerprint of the last picture with sightings in it.
+    last_picture: Option<u32>,
+    /// The tick the filter last took a sighting on.
+    last_taken_tick: u32,
+    /// The run of refused pictures since the last sighting taken.
+    run: Run,
+}
+
+/// How the pictures refused since the last sighting taken began.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum Run {
+    /// None refused since.
+    None,
+    /// The first crept past the gate: the estimate may have drifted.
+    Drifted,
+    /// The first leapt: the camera's doing.
+    Leapt,
+}
+
+impl CameraCheck {
+    /// A check with nothing seen yet.
+    pub fn new(limit: &LeapLimit) -> CameraCheck {
+        let position = |mm: u32| i64::from(mm) * units::POSITION_PER_MM;
+        let heading = |mdeg: u32| units::heading_from_mdeg(i64::from(mdeg));
+        CameraCheck {
+            bearing: heading(limit.bearing_mdeg),
+            bearing_per_tick: heading(limit.bearing_mdeg_per_tick),
+            range: position(limit.range_mm),
+            range_per_tick: position(limit.range_mm_per_tick),
+            last_picture: None,
+            last_taken_tick: 0,
+            run: Run::None,
+        }
+    }
+
+    /// Whether `tags` repeat the last picture's sightings bit for bit; a picture with
+    /// none is never a repeat, and is not remembered.
+    pub fn repeated(&mut self, tags: &TagDetections) -> bool {
+        if tags.is_empty() {
+            return false;
+        }
+        let print = fingerprint(tags);
+        let repeated = self.last_picture == Some(print);
+        self.last_picture = Some(print);
+        repeated
+    }
+
+    /// The filter took a sighting on tick `tick`: any run of refusals is over.
+    pub fn taken(&mut self, tick: u32) {
+        self.last_taken_tick = tick;
+        self.run = Run::None;
+    }
+
+    /// Whether a refused sighting, its bearing and range innovations `refused_by`
+    /// ([`crate::Estimator::refused_by`]) on tick `tick`, leapt from the prediction
+    /// further than the estimate can have drifted since the last sighting taken.
+    pub fn leaps(&self, refused_by: (i32, i32), tick: u32) -> bool {
+        // 2^20 ticks (29 hours) are as good as forever; held there, no product passes 2^53.
+        let since = i64::from(tick.wrapping_sub(self.last_taken_tick).min(1 << 20));
+        let (bearing, range) = refused_by;
+        let grown = |at_once: i64, per_tick: i64| at_once.saturating_add(per_tick * since);
+        i64::from(bearing).abs() > grown(self.bearing, self.bearing_per_tick)
+            || i64::from(range).abs() > grown(self.range, self.range_per_tick)
+    }
+
+    /// A picture was refused whole by the gate, `leapt` if each of its refused sightings
+    /// leapt ([`CameraCheck::leaps`]). The first such picture after one taken decides
+    /// the run. Returns whether the run counts towards forgetting the heading: it does
+    /// not if it began with a leap.
+    pub fn refused(&mut self, leapt: bool) -> bool {
+        if self.run == Run::None {
+            self.run = if leapt { Run::Leapt } else { Run::Drifted };
+        }
+        self.run == Run::Drifted
+    }
+
+    /// The filter forgot its heading: the next refusal begins a new run.
+    pub fn relocalised(&mut self) {
+        self.run = Run::None;
+    }
+}
+
+/// FNV-1a over each sighting's id, column and distance: equal pictures print alike, and
+/// two different ones alike once in four billion (which costs one picture).
+fn fingerprint(tags: &TagDetections) -> u32 {
+    let mut h: u32 = 0x811c_9dc5;
+    for t in tags.iter() {
+        for v in [u32::from(t.id), t.cx_centipx as u32, t.distance_mm] {
+            h = (h ^ v).wrapping_mul(0x0100_0193);
+        }
+    }
+    h
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::frame::TagDetection;
+
+    fn picture(cx: i32) -> TagDetections {
+        let mut tags = TagDetections::new();
+        let _ = tags.push(TagDetection {
+            id: 11,
+            cx_centipx: cx,
+            distance_mm: 1_450,
+        });
+        tags
+    }
+
+    #[test]
+    fn a_picture_given_again_is_a_repeat_and_a_new_one_is_not() {
+        let mut c = CameraCheck::new(&LeapLimit::SEED);
+        assert!(!c.repeated(&picture(16_000)));
+        assert!(c.repeated(&picture(16_000)));
+        assert!(!c.repeated(&picture(16_001)));
+        assert!(!c.repeated(&TagDetections::new()));
+        // An empty picture between two equal ones does not hide the repeat.
+        assert!(c.repeated(&picture(16_001)));
+    }
+
+    #[test]
+    fn the_limit_grows_with_the_ticks_since_the_last_sighting_taken() {
+        let mut c = CameraCheck::new(&LeapLimit::SEED);
+        c.taken(100);
+        let deg = |d: i64| units::heading_from_mdeg(d * 1000) as i32;
+        // Four degrees off one tick after: more than 3 + 0.5.
+        assert!(c.leaps((deg(4), 0), 101));
+        assert!(c.leaps((-deg(4), 0), 101));
+        // Ten ticks after, 8 degrees are allowed.
+        assert!(!c.leaps((deg(4), 0), 110));
+        // 30 mm of range one tick after: more than 20 + 2.
+        assert!(c.leaps((0, 30 * 16), 101));
+        assert!(!c.leaps((0, 30 * 16), 105));
+    }
+
+    #[test]
+    fn a_run_that_began_with_a_leap_never_counts_until_a_sighting_is_taken() {
+        let mut c = CameraCheck::new(&LeapLimit::SEED);
+        assert!(!c.refused(true));
+        // Later pictures of the run are no further off than the first: still the leap's.
+        assert!(!c.refused(false));
+        c.taken(7);
+        assert!(c.refused(false));
+        assert!(c.refused(true));
+        c.relocalised();
+        assert!(!c.refused(true));
+    }
+}
