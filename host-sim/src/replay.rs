@@ -409,7 +409,7 @@ impl Run<'_> {
 /// Every field of the robot's `Tick` but its time against the replay's.
 fn compare_tick(c: &mut BitForBit, robot: &Tick, replay: &Tick) {
     let (a, b) = (&robot.counters, &replay.counters);
-    let fields: [(&str, i64, i64); 18] = [
+    let fields: [(&str, i64, i64); 19] = [
         ("x_um", robot.x_um.into(), replay.x_um.into()),
         ("y_um", robot.y_um.into(), replay.y_um.into()),
         (
@@ -458,6 +458,11 @@ fn compare_tick(c: &mut BitForBit, robot: &Tick, replay: &Tick) {
             "counters.pictures_leapt",
             a.pictures_leapt.into(),
             b.pictures_leapt.into(),
+        ),
+        (
+            "counters.pictures_late",
+            a.pictures_late.into(),
+            b.pictures_late.into(),
         ),
         (
             "counters.beams_mapped",

@@ -694,9 +694,9 @@ impl fmt::Display for Summary {
         if let Some(c) = self.counters {
             writeln!(
                 f,
-                "counters: fixes {} taken, {} geometry / {} gate / {} too old rejected, {} relocalisations; pictures {} repeated, {} leapt; beams {} mapped, {} invalid; stale flow {} gyro {} depth {}",
+                "counters: fixes {} taken, {} geometry / {} gate / {} too old rejected, {} relocalisations; pictures {} repeated, {} leapt, {} late; beams {} mapped, {} invalid; stale flow {} gyro {} depth {}",
                 c.fixes_taken, c.fixes_rejected_geometry, c.fixes_rejected_gate,
-                c.fixes_rejected_too_old, c.relocalisations, c.pictures_repeated, c.pictures_leapt,
+                c.fixes_rejected_too_old, c.relocalisations, c.pictures_repeated, c.pictures_leapt, c.pictures_late,
                 c.beams_mapped, c.beams_invalid, c.flow_stale, c.gyro_stale, c.depth_stale
             )?;
         }

@@ -13,7 +13,11 @@
 //!
 //! A picture whose sightings repeat the last picture's bit for bit says nothing new (a
 //! camera stuck on one frame, or one picture handed over twice): it is refused whole,
-//! before the filter sees it, so no sighting is counted twice.
+//! before the filter sees it, so no sighting is counted twice. One that repeats a picture
+//! from a few ticks before, with others between, says the camera has fallen behind: it
+//! is refused too, and the pictures after it are taken as that many ticks older than they
+//! say ([`CameraCheck::lag_ticks`]), until a sighting the gate refuses at that moment is
+//! taken at the moment the picture gave (the camera has caught up).
 
 use crate::estimator::units;
 use crate::frame::TagDetections;
@@ -58,12 +62,35 @@ pub struct CameraCheck {
     bearing_per_tick: i64,
     range: i64,
     range_per_tick: i64,
-    /// A fingerprint of the last picture with sightings in it.
-    last_picture: Option<u32>,
+    /// Fingerprints of the last pictures with sightings in them, each with its tick; the
+    /// newest at `newest`.
+    pictures: [Option<(u32, u32)>; REMEMBERED],
+    newest: u8,
+    /// How many ticks behind the camera has fallen, if it has.
+    lag: Option<u32>,
     /// The tick the filter last took a sighting on.
     last_taken_tick: u32,
     /// The run of refused pictures since the last sighting taken.
     run: Run,
+}
+
+/// How many pictures [`CameraCheck`] remembers: a camera up to three ticks behind is
+/// found out, as far back as the pose history can place a picture a tick old
+/// ([`crate::history::HISTORY_LEN`]).
+const REMEMBERED: usize = crate::history::HISTORY_LEN - 1;
+
+/// What a picture is to the pictures before it.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum Picture {
+    /// Not seen before.
+    New,
+    /// The last picture again.
+    Repeated,
+    /// A picture from `ticks` ticks before, with others since: the camera is behind.
+    Late {
+        /// How far behind.
+        ticks: u32,
+    },
 }
 
 /// How the pictures refused since the last sighting taken began.
@@ -87,22 +114,51 @@ impl CameraCheck {
             bearing_per_tick: heading(limit.bearing_mdeg_per_tick),
             range: position(limit.range_mm),
             range_per_tick: position(limit.range_mm_per_tick),
-            last_picture: None,
+            pictures: [None; REMEMBERED],
+            newest: 0,
+            lag: None,
             last_taken_tick: 0,
             run: Run::None,
         }
     }
 
-    /// Whether `tags` repeat the last picture's sightings bit for bit; a picture with
-    /// none is never a repeat, and is not remembered.
-    pub fn repeated(&mut self, tags: &TagDetections) -> bool {
+    /// What the picture `tags`, taken in on tick `tick`, is: new, the last one again, or
+    /// one from a few ticks before (then the camera's lag is that many ticks). A picture
+    /// with no sightings is always new, and is not remembered.
+    pub fn judge(&mut self, tags: &TagDetections, tick: u32) -> Picture {
         if tags.is_empty() {
-            return false;
+            return Picture::New;
         }
         let print = fingerprint(tags);
-        let repeated = self.last_picture == Some(print);
-        self.last_picture = Some(print);
-        repeated
+        let newest = usize::from(self.newest);
+        for (i, seen) in self.pictures.iter().enumerate() {
+            match *seen {
+                Some((p, _)) if p == print && i == newest => return Picture::Repeated,
+                Some((p, then)) if p == print => {
+                    let ticks = tick.wrapping_sub(then);
+                    self.lag = Some(ticks);
+                    return Picture::Late { ticks };
+                }
+                _ => {}
+            }
+        }
+        let next = (newest + 1) % REMEMBERED;
+        if let Some(slot) = self.pictures.get_mut(next) {
+            *slot = Some((print, tick));
+        }
+        self.newest = next as u8;
+        Picture::New
+    }
+
+    /// How many ticks behind the camera has fallen, if it has.
+    pub fn lag_ticks(&self) -> Option<u32> {
+        self.lag
+    }
+
+    /// A sighting refused at the lagged moment was taken at the picture's own: the
+    /// camera has caught up.
+    pub fn caught_up(&mut self) {
+        self.lag = None;
     }
 
     /// The filter took a sighting on tick `tick`: any run of refusals is over.
@@ -170,12 +226,35 @@ mod tests {
     #[test]
     fn a_picture_given_again_is_a_repeat_and_a_new_one_is_not() {
         let mut c = CameraCheck::new(&LeapLimit::SEED);
-        assert!(!c.repeated(&picture(16_000)));
-        assert!(c.repeated(&picture(16_000)));
-        assert!(!c.repeated(&picture(16_001)));
-        assert!(!c.repeated(&TagDetections::new()));
+        assert_eq!(c.judge(&picture(16_000), 1), Picture::New);
+        assert_eq!(c.judge(&picture(16_000), 2), Picture::Repeated);
+        assert_eq!(c.judge(&picture(16_001), 3), Picture::New);
+        assert_eq!(c.judge(&TagDetections::new(), 4), Picture::New);
         // An empty picture between two equal ones does not hide the repeat.
-        assert!(c.repeated(&picture(16_001)));
+        assert_eq!(c.judge(&picture(16_001), 5), Picture::Repeated);
+        assert_eq!(c.lag_ticks(), None);
+    }
+
+    #[test]
+    fn a_picture_from_ticks_before_is_late_by_them_until_the_camera_catches_up() {
+        let mut c = CameraCheck::new(&LeapLimit::SEED);
+        for tick in 12..16 {
+            assert_eq!(c.judge(&picture(tick as i32), tick), Picture::New);
+        }
+        // The camera falls three ticks behind: tick 13's picture again on tick 16.
+        assert_eq!(c.judge(&picture(13), 16), Picture::Late { ticks: 3 });
+        assert_eq!(c.lag_ticks(), Some(3));
+        assert_eq!(c.judge(&picture(14), 17), Picture::Late { ticks: 3 });
+        // A picture not seen before keeps the lag until the camera has caught up.
+        assert_eq!(c.judge(&picture(16), 19), Picture::New);
+        assert_eq!(c.lag_ticks(), Some(3));
+        c.caught_up();
+        assert_eq!(c.lag_ticks(), None);
+        // Four pictures on, the oldest is forgotten.
+        for tick in 20..24 {
+            assert_eq!(c.judge(&picture(tick as i32), tick), Picture::New);
+        }
+        assert_eq!(c.judge(&picture(16), 24), Picture::New);
     }
 
     #[test]

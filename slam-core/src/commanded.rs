@@ -117,6 +117,13 @@ impl RecentCommands {
         self.bounds = self.bounds_of_slots();
     }
 
+    /// Whether the last commands are all known and all the same: the robot moves now as
+    /// it moved a few ticks ago.
+    pub fn steady(&self) -> bool {
+        let [first, rest @ ..] = &self.slots;
+        first.is_some() && rest.iter().all(|c| c == first)
+    }
+
     /// The slowest and fastest turn the robot can have been commanded over the last
     /// interval, millidegrees per second (0 always among them: a wheel may stop), and the
     /// fastest drive, millimetres per second; `None` unless all the commands are known.

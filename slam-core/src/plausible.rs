@@ -196,9 +196,13 @@ impl Trust {
 /// What the odometry knows of one input this tick.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub enum Known<T> {
-    /// A reading to integrate (the sensor's own, or the last trusted one standing in for
-    /// the tick a doubt began).
+    /// A reading to integrate: the sensor's own, or the last trusted one on the tick a
+    /// doubt began while the commands were steady (the robot moving as it was).
     Read(T),
+    /// The last trusted reading on the tick a doubt began just after the commands
+    /// changed: integrated, but a guess, so the filter takes it with the noise of a tick
+    /// it knows nothing of.
+    StandIn(T),
     /// The robot was held: it did not move this way.
     Still,
     /// Nothing is known: no reading, and the robot was not held.
@@ -209,20 +213,21 @@ impl<T: Copy> Known<T> {
     /// The reading to integrate, if any.
     pub fn reading(&self) -> Option<T> {
         match self {
-            Known::Read(r) => Some(*r),
+            Known::Read(r) | Known::StandIn(r) => Some(*r),
             _ => None,
         }
     }
 
     /// Whether the tick's motion this way is known (read or held still).
     pub fn is_known(&self) -> bool {
-        !matches!(self, Known::Lost)
+        matches!(self, Known::Read(_) | Known::Still)
     }
 
     /// Which of the three it is, without the reading.
     pub fn kind(&self) -> Known<()> {
         match self {
             Known::Read(_) => Known::Read(()),
+            Known::StandIn(_) => Known::StandIn(()),
             Known::Still => Known::Still,
             Known::Lost => Known::Lost,
         }
@@ -494,20 +499,24 @@ impl Plausibility {
         }
 
         let trust = self.trust();
-        let gyro = known(gyro, trust.gyro, turn_held, &mut self.moving_gyro);
-        let flow = known(flow, trust.flow, drive_held, &mut self.moving_flow);
+        let steady = self.commands.steady();
+        let gyro = known(gyro, trust.gyro, turn_held, steady, &mut self.moving_gyro);
+        let flow = known(flow, trust.flow, drive_held, steady, &mut self.moving_flow);
         Judged { gyro, flow, trust }
     }
 }
 
 /// What to integrate of an input: its reading when trusted (or absent unheard: lost);
 /// when doubted, still if the robot was held, else the reading of the last trusted tick
-/// on which it was not held: a held motion resumes as it was when it stopped.
+/// on which it was not held: a held motion resumes as it was when it stopped. That
+/// reading is as good as one while the commands are `steady`; when they changed of late
+/// (a turn ending, a drive beginning) it only stands in.
 #[inline(never)]
 fn known<T: Copy>(
     reading: Option<T>,
     doubt: Option<Doubt>,
     held: bool,
+    steady: bool,
     moving: &mut Option<T>,
 ) -> Known<T> {
     match (doubt, reading) {
@@ -519,7 +528,11 @@ fn known<T: Copy>(
         }
         (None, None) => Known::Lost,
         (Some(_), _) if held => Known::Still,
-        (Some(_), _) => moving.map_or(Known::Lost, Known::Read),
+        (Some(_), _) => match *moving {
+            None => Known::Lost,
+            Some(r) if steady => Known::Read(r),
+            Some(r) => Known::StandIn(r),
+        },
     }
 }
 
@@ -662,7 +675,7 @@ mod tests {
         let lost = tick(&mut p, None);
         assert_eq!(lost.trust.gyro, Some(Doubt::Missing));
         assert_eq!(lost.trust.lacking(true, false), Some(Input::Gyro));
-        assert_eq!(lost.gyro, Known::Read(rate(31_500)));
+        assert_eq!(lost.gyro, Known::StandIn(rate(31_500)));
         assert_eq!(tick(&mut p, None).gyro, Known::Still);
         // Back, still: two good readings are not yet enough, a third is.
         for _ in 0..2 {
@@ -682,6 +695,35 @@ mod tests {
     }
 
     #[test]
+    fn a_stand_in_is_a_reading_while_the_commands_are_steady_and_a_guess_after_a_change() {
+        let turn = DriveCommand {
+            speed_mm_s: 0,
+            turn_mdps: 31_500,
+        };
+        let drive = DriveCommand {
+            speed_mm_s: 86,
+            turn_mdps: 0,
+        };
+        let turning = || {
+            let mut p = Plausibility::default();
+            for _ in 0..4 {
+                let j = p.judge(Some(rate(31_500)), None, None, Some(turn), &C);
+                assert_eq!(j.trust, Trust::default());
+            }
+            p
+        };
+        // Lost in a steady turn: the robot turns as it did.
+        let lost = turning().judge(None, None, None, Some(turn), &C);
+        assert_eq!(lost.gyro, Known::Read(rate(31_500)));
+        // Lost as the turn gives way to a drive: the last rate is only a guess.
+        let lost = turning().judge(None, None, None, Some(drive), &C);
+        assert_eq!(lost.gyro, Known::StandIn(rate(31_500)));
+        // And with the commands not known.
+        let lost = turning().judge(None, None, None, None, &C);
+        assert_eq!(lost.gyro, Known::StandIn(rate(31_500)));
+    }
+
+    #[test]
     fn a_doubted_flow_holds_drives_not_turns() {
         let mut p = Plausibility::default();
         let mut not_turning_with_flow =
@@ -689,7 +731,7 @@ mod tests {
         not_turning_with_flow(86);
         let garbage = not_turning_with_flow(9_000);
         assert_eq!(garbage.trust.flow, Some(Doubt::Impossible));
-        assert_eq!(garbage.flow, Known::Read(flow(86, 0)));
+        assert_eq!(garbage.flow, Known::StandIn(flow(86, 0)));
         assert_eq!(garbage.trust.lacking(true, false), None);
         assert_eq!(garbage.trust.lacking(false, true), Some(Input::Flow));
         assert!(!garbage.trust.pose());

@@ -1,7 +1,7 @@
 //! The SLAM loop: one pure `step` per tick, called alike by the firmware and the simulator.
 
 use crate::angle::Angle;
-use crate::camera_check::CameraCheck;
+use crate::camera_check::{CameraCheck, Picture};
 use crate::estimator::{
     Estimate, Estimator, EstimatorConfig, MapUncertainty, MatchCounters, MatchNoise, TagCounters,
     TagRefusal,
@@ -200,6 +200,10 @@ pub struct Counters {
     /// Pictures the gate refused whose refusals began with a leap: they do not count
     /// towards forgetting the heading ([`crate::camera_check`]).
     pub pictures_leapt: u32,
+    /// Pictures refused whole for repeating one from a few ticks before: the camera had
+    /// fallen behind, and the pictures after them are taken as that much older
+    /// ([`crate::camera_check`]).
+    pub pictures_late: u32,
     /// Beams written into the map.
     pub beams_mapped: u32,
     /// Beams with no valid return, skipped.
@@ -581,25 +585,59 @@ impl<const W: usize, const H: usize> Slam<W, H> {
     /// turn, but for rounding, for half the work with two tags in view).
     fn filter_tags(&mut self, frame: &SensorFrame) -> FixOutcome {
         let mut outcome = FixOutcome::NotAttempted;
-        if self.camera.repeated(&frame.tags) {
-            self.counters.pictures_repeated += 1;
-            self.estimator.settle();
-            return outcome;
+        match self.camera.judge(&frame.tags, self.counters.ticks) {
+            Picture::New => {}
+            Picture::Repeated => {
+                self.counters.pictures_repeated += 1;
+                self.estimator.settle();
+                return outcome;
+            }
+            Picture::Late { ticks } => {
+                // A robot standing still sees the same picture now and then; its lag
+                // would say nothing, and taken for a camera's it would misplace the
+                // pictures once the robot moves.
+                let then = self.history.at(ticks.saturating_mul(frame.dt_us));
+                if !then.is_some_and(|then| moved(&then, &self.pose)) {
+                    self.camera.caught_up();
+                }
+                self.counters.pictures_late += 1;
+                self.estimator.settle();
+                return outcome;
+            }
         }
+        // A camera fallen behind gives pictures older than they say.
+        let age = match self.camera.lag_ticks() {
+            None => frame.tags_age_us,
+            Some(lag) => frame
+                .tags_age_us
+                .saturating_add(lag.saturating_mul(frame.dt_us)),
+        };
         // Whether every sighting the gate refused leapt ([`CameraCheck::leaps`]).
         let mut leapt = true;
         // The picture's pose before the first taken update and after the latest.
         let mut carried: Option<(Pose, Pose)> = None;
         for detection in frame.tags.iter() {
-            let then = match carried {
+            let mut then = match carried {
                 Some((_, corrected)) => Some(corrected),
-                None => self.history.at(frame.tags_age_us),
+                None => self.history.at(age),
             };
             let tag = self.config.tags.get(detection.id);
-            match self
+            let mut sighted = self
                 .estimator
-                .sight(detection, tag, &self.config.camera, then)
-            {
+                .sight(detection, tag, &self.config.camera, then);
+            if sighted == Err(TagRefusal::Gate) && carried.is_none() && age != frame.tags_age_us {
+                // Refused at the moment a camera behind would have taken it: taken at
+                // the moment the picture gives, the camera has caught up.
+                let own = self.history.at(frame.tags_age_us);
+                let retried = self
+                    .estimator
+                    .sight(detection, tag, &self.config.camera, own);
+                if retried.is_ok() {
+                    self.camera.caught_up();
+                    (then, sighted) = (own, retried);
+                }
+            }
+            match sighted {
                 Ok(corrected) => {
                     if let Some(then) = then {
                         let first = carried.map_or(then, |(first, _)| first);
@@ -944,4 +982,15 @@ fn map_scan(
         counters.beams_mapped += 1;
     }
     written
+}
+
+/// Whether the robot moved between `a` and `b` by more than a camera's noise shows: 5 mm
+/// or half a degree.
+fn moved(a: &Pose, b: &Pose) -> bool {
+    const MM: i64 = 5;
+    const HALF_DEGREE_BITS: i64 = (1i64 << 32) / 720;
+    let far = |p: i32, q: i32| (i64::from(p) - i64::from(q)).abs() > MM * 1000;
+    far(a.x_um, b.x_um)
+        || far(a.y_um, b.y_um)
+        || i64::from((a.heading - b.heading).signed_bits()).abs() > HALF_DEGREE_BITS
 }

@@ -99,6 +99,7 @@ fn tick() -> Message {
             relocalisations: 0,
             pictures_repeated: 4,
             pictures_leapt: 5,
+            pictures_late: 6,
             beams_mapped: 1000,
             beams_invalid: 96,
             flow_stale: 3,
@@ -509,6 +510,7 @@ fn worst_case_messages_fit() {
             relocalisations: u32::MAX,
             pictures_repeated: u32::MAX,
             pictures_leapt: u32::MAX,
+            pictures_late: u32::MAX,
             beams_mapped: u32::MAX,
             beams_invalid: u32::MAX,
             flow_stale: u32::MAX,
@@ -575,7 +577,7 @@ fn worst_case_messages_fit() {
     for (m, limit) in [
         (big, 142),
         (worst_inputs(), MAX_FRAME_LEN),
-        (worst_tick, 127),
+        (worst_tick, 132),
         (worst_filter, 116),
         (Message::Health(all_max), 66),
         (worst_hello, 39),
@@ -979,7 +981,7 @@ proptest! {
     #[test]
     fn arbitrary_ticks_round_trip(
         v in proptest::array::uniform17(any::<u32>()),
-        w in proptest::array::uniform6(any::<u32>()),
+        w in proptest::array::uniform7(any::<u32>()),
         fix in 0u8..5,
         stale in any::<u8>(),
         doubts in any::<u16>(),
@@ -1003,7 +1005,7 @@ proptest! {
                 fixes_rejected_gate: v[9], fixes_rejected_too_old: v[16], relocalisations: v[10], beams_mapped: v[11],
                 beams_invalid: v[12], flow_stale: v[13], gyro_stale: v[14], depth_stale: v[15],
                 gyro_doubted: w[0], flow_doubted: w[1], depth_doubted: w[2], scans_withheld: w[3],
-                pictures_repeated: w[4], pictures_leapt: w[5],
+                pictures_repeated: w[4], pictures_leapt: w[5], pictures_late: w[6],
             },
         };
         // Noise, a delimiter, then the frame: the frame always comes through.

@@ -42,6 +42,7 @@ pub(crate) struct CountersDef {
     relocalisations: u32,
     pictures_repeated: u32,
     pictures_leapt: u32,
+    pictures_late: u32,
     beams_mapped: u32,
     beams_invalid: u32,
     flow_stale: u32,

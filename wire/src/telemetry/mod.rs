@@ -58,11 +58,11 @@
 //!
 //! The longest frame is [`MAX_FRAME_LEN`] (213) bytes, a full `Inputs`. On the seed's
 //! 46 x 46 grid at 10 Hz with [`Schedule::DEFAULT`]: a `MapRows` of two rows (92 cells)
-//! is 101 bytes a tick, an `Inputs` at most 213, a `Tick` at most 127, a `Filter` at most
+//! is 101 bytes a tick, an `Inputs` at most 213, a `Tick` at most 132, a `Filter` at most
 //! 116, a `Health` at most 66 once a second and a `Hello` at most 37 every 5 s (the tests
-//! check each bound). That is at most 10 x (101 + 213 + 127 + 116) + 66 + 8 = 5,644
+//! check each bound). That is at most 10 x (101 + 213 + 132 + 116) + 66 + 8 = 5,694
 //! bytes/s, and the whole map refreshes every 2.3 s. The firmware sends two chunks a
-//! tick: at most 6,653 bytes/s, 7.2 % of its 921,600 baud 8N1 UART (92,160 bytes/s), of
+//! tick: at most 6,703 bytes/s, 7.3 % of its 921,600 baud 8N1 UART (92,160 bytes/s), of
 //! which the inputs are 2,130 bytes/s (2.3 %). Without them (`inputs: false`) a run cannot
 //! be replayed, but the stream is a third shorter.
 //!
@@ -103,7 +103,7 @@ pub use stream::{encode, EncodeError, Schedule, Streamer};
 /// 7 the commanded motion to `Inputs` (and doubt code 6 to `Tick`); layout 8 whether the
 /// `Hello`'s filter matches scans against the map; layout 9 the depth scan's own doubt to
 /// `Inputs` (and doubt codes 7 and 8 to `Tick`); layout 10 the counts of pictures
-/// repeated and leapt to `Tick`'s counters.
+/// repeated, leapt and late to `Tick`'s counters.
 pub const WIRE_VERSION: u8 = 0xBA;
 
 /// Most cells one [`MapRows`] carries: two rows of the seed's 46-cell grid fit, and the
