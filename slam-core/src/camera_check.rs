@@ -62,9 +62,10 @@ pub struct CameraCheck {
     bearing_per_tick: i64,
     range: i64,
     range_per_tick: i64,
-    /// Fingerprints of the last pictures with sightings in them, each with its tick; the
-    /// newest at `newest`.
-    pictures: [Option<(u32, u32)>; REMEMBERED],
+    /// Fingerprints of the last pictures with sightings in them (0: none yet), and the
+    /// tick of each; the newest at `newest`.
+    prints: [u32; REMEMBERED],
+    ticks: [u32; REMEMBERED],
     newest: u8,
     /// How many ticks behind the camera has fallen, if it has.
     lag: Option<u32>,
@@ -114,7 +115,8 @@ impl CameraCheck {
             bearing_per_tick: heading(limit.bearing_mdeg_per_tick),
             range: position(limit.range_mm),
             range_per_tick: position(limit.range_mm_per_tick),
-            pictures: [None; REMEMBERED],
+            prints: [0; REMEMBERED],
+            ticks: [0; REMEMBERED],
             newest: 0,
             lag: None,
             last_taken_tick: 0,
@@ -131,20 +133,19 @@ impl CameraCheck {
         }
         let print = fingerprint(tags);
         let newest = usize::from(self.newest);
-        for (i, seen) in self.pictures.iter().enumerate() {
-            match *seen {
-                Some((p, _)) if p == print && i == newest => return Picture::Repeated,
-                Some((p, then)) if p == print => {
-                    let ticks = tick.wrapping_sub(then);
-                    self.lag = Some(ticks);
-                    return Picture::Late { ticks };
-                }
-                _ => {}
+        if self.prints.get(newest) == Some(&print) {
+            return Picture::Repeated;
+        }
+        for (seen, then) in self.prints.iter().zip(self.ticks) {
+            if *seen == print {
+                let ticks = tick.wrapping_sub(then);
+                self.lag = Some(ticks);
+                return Picture::Late { ticks };
             }
         }
         let next = (newest + 1) % REMEMBERED;
-        if let Some(slot) = self.pictures.get_mut(next) {
-            *slot = Some((print, tick));
+        if let (Some(p), Some(t)) = (self.prints.get_mut(next), self.ticks.get_mut(next)) {
+            (*p, *t) = (print, tick);
         }
         self.newest = next as u8;
         Picture::New
@@ -196,8 +197,8 @@ impl CameraCheck {
     }
 }
 
-/// FNV-1a over each sighting's id, column and distance: equal pictures print alike, and
-/// two different ones alike once in four billion (which costs one picture).
+/// FNV-1a over each sighting's id, column and distance, never 0: equal pictures print
+/// alike, and two different ones alike once in two billion (which costs one picture).
 fn fingerprint(tags: &TagDetections) -> u32 {
     let mut h: u32 = 0x811c_9dc5;
     for t in tags.iter() {
@@ -205,7 +206,7 @@ fn fingerprint(tags: &TagDetections) -> u32 {
             h = (h ^ v).wrapping_mul(0x0100_0193);
         }
     }
-    h
+    h.max(1)
 }
 
 #[cfg(test)]

@@ -499,9 +499,15 @@ impl Plausibility {
         }
 
         let trust = self.trust();
-        let steady = self.commands.steady();
-        let gyro = known(gyro, trust.gyro, turn_held, steady, &mut self.moving_gyro);
-        let flow = known(flow, trust.flow, drive_held, steady, &mut self.moving_flow);
+        let commands = &self.commands;
+        let gyro = known(gyro, trust.gyro, turn_held, commands, &mut self.moving_gyro);
+        let flow = known(
+            flow,
+            trust.flow,
+            drive_held,
+            commands,
+            &mut self.moving_flow,
+        );
         Judged { gyro, flow, trust }
     }
 }
@@ -509,14 +515,14 @@ impl Plausibility {
 /// What to integrate of an input: its reading when trusted (or absent unheard: lost);
 /// when doubted, still if the robot was held, else the reading of the last trusted tick
 /// on which it was not held: a held motion resumes as it was when it stopped. That
-/// reading is as good as one while the commands are `steady`; when they changed of late
+/// reading is as good as one while the `commands` are steady; when they changed of late
 /// (a turn ending, a drive beginning) it only stands in.
 #[inline(never)]
 fn known<T: Copy>(
     reading: Option<T>,
     doubt: Option<Doubt>,
     held: bool,
-    steady: bool,
+    commands: &RecentCommands,
     moving: &mut Option<T>,
 ) -> Known<T> {
     match (doubt, reading) {
@@ -530,7 +536,7 @@ fn known<T: Copy>(
         (Some(_), _) if held => Known::Still,
         (Some(_), _) => match *moving {
             None => Known::Lost,
-            Some(r) if steady => Known::Read(r),
+            Some(r) if commands.steady() => Known::Read(r),
             Some(r) => Known::StandIn(r),
         },
     }

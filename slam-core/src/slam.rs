@@ -6,7 +6,7 @@ use crate::estimator::{
     Estimate, Estimator, EstimatorConfig, MapUncertainty, MatchCounters, MatchNoise, TagCounters,
     TagRefusal,
 };
-use crate::frame::{DepthScan, FlowDelta, GyroRate, SensorFrame, BEAMS};
+use crate::frame::{DepthScan, FlowDelta, GyroRate, SensorFrame, TagDetection, BEAMS};
 use crate::grid::{BeamWriter, Evidence, GridGeometry, GridMap};
 use crate::history::PoseHistory;
 use crate::matcher::{Match, Matcher, MatcherConfig};
@@ -18,7 +18,7 @@ use crate::pose::{mul_q16, Pose, RigidMotion};
 use crate::tag_range::Witness;
 #[cfg(feature = "tag-range")]
 use crate::tag_range::{self, ZoneColumns};
-use crate::tagfix::{self, CameraConfig, FixConfig, FixOutcome, FixRejection, TagMap};
+use crate::tagfix::{self, CameraConfig, FixConfig, FixOutcome, FixRejection, KnownTag, TagMap};
 
 /// The depth sensor's fan and the mapper's range limit.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -625,16 +625,10 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             let mut sighted = self
                 .estimator
                 .sight(detection, tag, &self.config.camera, then);
-            if sighted == Err(TagRefusal::Gate) && carried.is_none() && age != frame.tags_age_us {
-                // Refused at the moment a camera behind would have taken it: taken at
-                // the moment the picture gives, the camera has caught up.
-                let own = self.history.at(frame.tags_age_us);
-                let retried = self
-                    .estimator
-                    .sight(detection, tag, &self.config.camera, own);
-                if retried.is_ok() {
-                    self.camera.caught_up();
-                    (then, sighted) = (own, retried);
+            if age != frame.tags_age_us && carried.is_none() && sighted == Err(TagRefusal::Gate) {
+                let tag = tag.copied();
+                if let Some(own) = self.sight_at_own_moment(detection, tag, frame.tags_age_us) {
+                    (then, sighted) = own;
                 }
             }
             match sighted {
@@ -701,6 +695,28 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             _ => {}
         }
         outcome
+    }
+
+    /// A sighting refused at the moment a camera behind would have taken it, tried at
+    /// the moment its picture gives, `age_us` ago: taken there, the camera has caught up.
+    /// Returns the moment's pose and the outcome if it was taken. Out of line and cold,
+    /// so that the step's own sighting keeps its code.
+    #[cold]
+    #[inline(never)]
+    fn sight_at_own_moment(
+        &mut self,
+        detection: &TagDetection,
+        tag: Option<KnownTag>,
+        age_us: u32,
+    ) -> Option<(Option<Pose>, Result<Pose, TagRefusal>)> {
+        let own = self.history.at(age_us);
+        let retried = self
+            .estimator
+            .sight(detection, tag.as_ref(), &self.config.camera, own);
+        retried.is_ok().then(|| {
+            self.camera.caught_up();
+            (own, retried)
+        })
     }
 
     #[cfg(feature = "matching")]

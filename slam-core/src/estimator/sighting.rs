@@ -129,6 +129,10 @@ impl Estimator {
     /// seen from `then`, the pose believed when the picture was taken (`None`: older
     /// than the history). Returns the corrected pose of that moment, or why the
     /// detection was refused; refusals are counted by cause.
+    ///
+    /// Inlined where it is called: the step calls it once a sighting, and a second
+    /// call site (a late camera's retry) would otherwise leave it out of line.
+    #[inline(always)]
     pub fn sight(
         &mut self,
         detection: &TagDetection,
