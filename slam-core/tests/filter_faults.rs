@@ -335,6 +335,20 @@ fn a_column_off_the_picture_is_refused_however_wide_the_gate() {
     );
 }
 
+/// The simulated robot from `start` with the seed's sensor errors and both tags where the
+/// map lists them.
+fn wanderer(start: &Pose, seed: u64) -> Robot {
+    Robot::new(
+        fpose(start),
+        Sensors::SEED,
+        [t11(), t12()]
+            .iter()
+            .map(|t| (t.id, t.x_mm as f64, t.y_mm as f64))
+            .collect(),
+        seed,
+    )
+}
+
 /// A camera that starts putting every tag 40 px to one side (the simulator's
 /// `camera-wrong`) for 3 s of a 60 s wander with both tags in view. The gate refuses the
 /// lie; its refusals began with a leap further than the odometry drifts in a tick, so
@@ -352,15 +366,7 @@ fn a_camera_that_leaps_never_makes_the_filter_forget_its_heading() {
         range_mm_per_tick: u32::MAX,
     };
     let run = |seed: u64, limit: LeapLimit, lie: bool| {
-        let mut robot = Robot::new(
-            fpose(&start),
-            Sensors::SEED,
-            [t11(), t12()]
-                .iter()
-                .map(|t| (t.id, t.x_mm as f64, t.y_mm as f64))
-                .collect(),
-            seed,
-        );
+        let mut robot = wanderer(&start, seed);
         let mut config = *filter(start).config();
         config.fix.leap = limit;
         let mut slam = SeedSlam::new(config, start).unwrap();
@@ -404,15 +410,7 @@ fn a_camera_that_leaps_never_makes_the_filter_forget_its_heading() {
 fn a_camera_fallen_behind_is_found_out_and_its_pictures_placed_when_taken() {
     let start = world::shipped::seed_robot().start;
     let run = |seed: u64, slow: bool| {
-        let mut robot = Robot::new(
-            fpose(&start),
-            Sensors::SEED,
-            [t11(), t12()]
-                .iter()
-                .map(|t| (t.id, t.x_mm as f64, t.y_mm as f64))
-                .collect(),
-            seed,
-        );
+        let mut robot = wanderer(&start, seed);
         let mut slam = filter(start);
         let mut pictures = std::collections::VecDeque::new();
         let mut poses = Vec::new();
