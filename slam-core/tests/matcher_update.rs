@@ -49,6 +49,7 @@ const NOISE: MatchNoise = MatchNoise {
     scale_pct: 100,
     floor_position_um: 0,
     floor_heading_mdeg: 0,
+    step_um: u32::MAX,
 };
 
 #[test]
@@ -109,6 +110,40 @@ fn a_match_far_from_the_prediction_is_gated() {
         Err(MatchRefusal::Gate)
     );
     assert_eq!(filter.covariance(), &before);
+}
+
+#[test]
+fn a_match_that_would_jump_moves_the_pose_a_step_and_is_believed_less() {
+    // A filter 100 mm unsure and a sure corner 60 mm off: taken whole, it would move the
+    // pose nearly all of the way in one tick.
+    let lost = || {
+        Estimator::new(EstimatorConfig {
+            initial_position_mm: 100,
+            initial_heading_mdeg: 1000,
+            ..EstimatorConfig::SEED
+        })
+    };
+    let m = hand_made(60_000, 0, 0, (3_000, 3_000, 300), Pins::All);
+    let moved = |filter: &mut Estimator, noise: &MatchNoise| {
+        let corrected = filter
+            .apply_match(&m, noise, &MapUncertainty::default())
+            .expect("within the gate");
+        i64::from(corrected.x_um - m.prediction.x_um).abs()
+    };
+    let (mut whole, mut stepped) = (lost(), lost());
+    assert!(moved(&mut whole, &NOISE) > 50_000);
+    let limited = MatchNoise {
+        step_um: 20_000,
+        ..NOISE
+    };
+    let step = moved(&mut stepped, &limited);
+    assert!((5_000..=20_000).contains(&step), "moved {step} um");
+    // Widened, not clipped: the filter is left as unsure as a match that far trusted less.
+    let xx = |f: &Estimator| f.covariance().get(State::X, State::X);
+    assert!(xx(&stepped) > 4 * xx(&whole));
+    // The next match, from where this one left the pose, steps on.
+    let mut again = stepped.clone();
+    assert!(moved(&mut again, &limited) > 0);
 }
 
 #[test]

@@ -40,17 +40,24 @@ pub struct MatchNoise {
     pub floor_position_um: u32,
     /// The same for the heading, millidegrees.
     pub floor_heading_mdeg: u32,
+    /// The furthest one match may move the position at its moment, micrometres. A match
+    /// that would move it further is taken with its noise widened until it does not: the
+    /// rest of the way comes over the next matches, so the map is never written across a
+    /// jump. A tick's error can then fall by no more than this and a tick's odometry.
+    pub step_um: u32,
 }
 
 impl MatchNoise {
     /// The seed's: a match's spread doubled, plus 3 mm and 0.3 degrees; floors of a
-    /// 5 cm cell's quantisation (`50 / sqrt(12)` mm) and 0.3 degrees.
+    /// 5 cm cell's quantisation (`50 / sqrt(12)` mm) and 0.3 degrees; a step of at most
+    /// 2 cm, inside the 3 cm a tick that issue 11 allows.
     pub const SEED: MatchNoise = MatchNoise {
         position_um: 3_000,
         heading_mdeg: 300,
         scale_pct: 200,
         floor_position_um: 14_434,
         floor_heading_mdeg: 300,
+        step_um: 20_000,
     };
 
     /// The floors as a covariance over x, y and heading in the filter's units: the map's
@@ -282,6 +289,28 @@ impl Components {
         }
     }
 
+    /// These components with their covariance shifted left by `bits` (saturating): the
+    /// same match, trusted less.
+    fn widened(&self, bits: u32) -> Components {
+        let bits = bits.min(MOST_WIDENED);
+        let widen = |v: i64| {
+            if v.unsigned_abs() >> (62 - bits) != 0 {
+                if v < 0 {
+                    i64::MIN
+                } else {
+                    i64::MAX
+                }
+            } else {
+                v << bits
+            }
+        };
+        Components {
+            nu: self.nu,
+            c: self.c.map(|row| row.map(widen)),
+            rows: self.rows,
+        }
+    }
+
     /// The chosen components as independent scalar measurements (the match's covariance
     /// factored as `L D L^T`, each measurement less what the earlier ones explain), in
     /// `order`. `None` if a variance left is not positive.
@@ -356,6 +385,23 @@ impl Components {
     }
 }
 
+/// Bits a widening shifts the match's covariance by: its deviations doubled.
+const WIDEN_SHIFT: u32 = 2;
+
+/// The most a match's covariance is widened, in bits: deviations 64 times the surface's.
+/// One that still steps too far is refused as beyond the gate.
+const MOST_WIDENED: u32 = 12;
+
+/// Whether the correction `fine` moves the position further than `step_um`.
+fn steps_further(fine: &[i64; N], step_um: u32) -> bool {
+    let dx = units::um_from_fine_position(fine[State::X as usize]);
+    let dy = units::um_from_fine_position(fine[State::Y as usize]);
+    let most = u64::from(step_um);
+    // Each within 2^31 um (2 km) before squaring: the sum fits 64 bits unsigned.
+    let square = |d: i64| d.unsigned_abs().min(1 << 31).pow(2);
+    square(dx) + square(dy) > most * most
+}
+
 /// The noise to give `m` so that the filter's variance along it, `prior` before, is
 /// left at least `m.floor` after: `r` with `prior r / (prior + r) >= floor`. `None` when
 /// `prior` is already at or below the floor.
@@ -377,12 +423,38 @@ impl Estimator {
         noise: &MatchNoise,
         map: &MapUncertainty,
     ) -> Result<Pose, MatchRefusal> {
-        use Component::{Across, Along, Heading};
         let then = matched.prediction;
         let parts = Components::of(matched, noise);
+        let floors = noise.floors(map);
+        // Each pair is gated given the ones before; one beyond the gate refuses the whole
+        // match, so the pairs go into a copy (a 6 x 6 matrix: a few hundred bytes).
+        let mut trial = self.clone();
+        let mut fine = trial.matched(matched.pins, &parts, &floors)?;
+        let mut widened = 0;
+        while steps_further(&fine, noise.step_um) {
+            widened += WIDEN_SHIFT;
+            if widened > MOST_WIDENED {
+                return Err(MatchRefusal::Gate);
+            }
+            trial = self.clone();
+            fine = trial.matched(matched.pins, &parts.widened(widened), &floors)?;
+        }
+        *self = trial;
+        Ok(self.corrected(&then, fine))
+    }
+
+    /// Updates the filter from the match's components `parts`, measured along what `pins`
+    /// says; returns the state correction in fine units.
+    fn matched(
+        &mut self,
+        pins: Pins,
+        parts: &Components,
+        floors: &Floors,
+    ) -> Result<[i64; N], MatchRefusal> {
+        use Component::{Across, Along, Heading};
         // The heading second: a match that cannot place the robot along a wall still
         // turns it.
-        let order: &[Component] = match matched.pins {
+        let order: &[Component] = match pins {
             Pins::All => &[Across, Heading, Along],
             Pins::AllButAlong(_) => &[Across, Heading],
             Pins::AcrossOnly(_) => &[Across],
@@ -390,18 +462,14 @@ impl Estimator {
             Pins::HeadingOnly => &[Heading],
         };
         let (scalars, n) = parts
-            .whitened(order, &noise.floors(map))
+            .whitened(order, floors)
             .ok_or(MatchRefusal::NothingPinned)?;
         let scalars = scalars.get(..n).unwrap_or(&[]);
-        // Each pair is gated given the ones before; one beyond the gate refuses the whole
-        // match, so the pairs go into a copy first (a 6 x 6 matrix: a few hundred bytes).
         let mut fine = [0i64; N];
-        let mut trial = self.clone();
         for pair in scalars.chunks(2) {
-            trial.update_pair(pair[0], pair.get(1).copied(), &mut fine)?;
+            self.update_pair(pair[0], pair.get(1).copied(), &mut fine)?;
         }
-        *self = trial;
-        Ok(self.corrected(&then, fine))
+        Ok(fine)
     }
 
     /// One or two scalar measurements as one update, the second conditioned on the first
