@@ -245,7 +245,7 @@ fn the_corridor_is_consistent() {
 
 /// Issue 11, the matches' part: on every shipped world without tags, where only matches
 /// correct the pose, no tick moves the estimate more than 3 cm beyond the robot's own
-/// motion (a match steps at most `MatchNoise::step_um`; the corridor's end jumped 5 cm
+/// motion (a match steps at most `MATCH_STEP_UM`; the corridor's end jumped 5 cm
 /// before).
 #[test]
 fn no_match_jumps_over_3_cm() {

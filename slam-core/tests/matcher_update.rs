@@ -3,7 +3,7 @@
 //! from the prediction is refused by the gate.
 
 use slam_core::estimator::State;
-use slam_core::estimator::{MapUncertainty, MatchNoise};
+use slam_core::estimator::{MapUncertainty, MatchNoise, MATCH_STEP_UM};
 use slam_core::matcher::{Match, MatchCovariance, MatchRefusal, MatchStats, Pins};
 use slam_core::{Angle, Estimator, EstimatorConfig, Pose};
 
@@ -49,7 +49,6 @@ const NOISE: MatchNoise = MatchNoise {
     scale_pct: 100,
     floor_position_um: 0,
     floor_heading_mdeg: 0,
-    step_um: u32::MAX,
 };
 
 #[test]
@@ -124,26 +123,25 @@ fn a_match_that_would_jump_moves_the_pose_a_step_and_is_believed_less() {
         })
     };
     let m = hand_made(60_000, 0, 0, (3_000, 3_000, 300), Pins::All);
-    let moved = |filter: &mut Estimator, noise: &MatchNoise| {
+    let moved = |filter: &mut Estimator, step_um: u32| {
         let corrected = filter
-            .apply_match(&m, noise, &MapUncertainty::default())
+            .apply_match_within(&m, &NOISE, &MapUncertainty::default(), step_um)
             .expect("within the gate");
         i64::from(corrected.x_um - m.prediction.x_um).abs()
     };
     let (mut whole, mut stepped) = (lost(), lost());
-    assert!(moved(&mut whole, &NOISE) > 50_000);
-    let limited = MatchNoise {
-        step_um: 20_000,
-        ..NOISE
-    };
-    let step = moved(&mut stepped, &limited);
-    assert!((5_000..=20_000).contains(&step), "moved {step} um");
+    assert!(moved(&mut whole, u32::MAX) > 50_000);
+    let step = moved(&mut stepped, MATCH_STEP_UM);
+    assert!(
+        (5_000..=i64::from(MATCH_STEP_UM)).contains(&step),
+        "moved {step} um"
+    );
     // Widened, not clipped: the filter is left as unsure as a match that far trusted less.
     let xx = |f: &Estimator| f.covariance().get(State::X, State::X);
     assert!(xx(&stepped) > 4 * xx(&whole));
     // The next match, from where this one left the pose, steps on.
     let mut again = stepped.clone();
-    assert!(moved(&mut again, &limited) > 0);
+    assert!(moved(&mut again, MATCH_STEP_UM) > 0);
 }
 
 #[test]

@@ -31,7 +31,7 @@ pub mod units;
 
 pub use config::EstimatorConfig;
 pub use filter::Estimator;
-pub use matched::{MapUncertainty, MatchCounters, MatchNoise};
+pub use matched::{MapUncertainty, MatchCounters, MatchNoise, MATCH_STEP_UM};
 
 /// The filter's states, in the covariance's order.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
