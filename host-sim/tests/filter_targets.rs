@@ -218,6 +218,33 @@ fn the_seed_mat_without_tags() {
     );
 }
 
+/// Issue 11's seed mat without tags with the gyro reading 0.75 % short instead of the
+/// seed's 0.75 % long: the same targets, as a robot whose gyro errs the other way would
+/// have them. The matcher's pull against a spin's turn cancels part of the seed's error
+/// and doubles this one.
+#[test]
+#[ignore = "issue 11: the gyro's scale learned only by accident of its sign: final 21.6 cm, heading 20.3 degrees at worst (README: The gyro's sign)"]
+fn the_seed_mat_without_tags_with_the_gyro_reading_short() {
+    let mut scenario = scenario("seed-mat-no-tags.toml");
+    scenario.sensors.gyro.scale_error = -scenario.sensors.gyro.scale_error;
+    assert!(
+        scenario.sensors.gyro.scale_error < 0.0,
+        "the seed's gyro reads long"
+    );
+    let runs: Vec<Figures> = SEEDS
+        .map(|seed| match run(&scenario, PoseMode::Slam, seed) {
+            Ok(out) => out.figures,
+            Err(e) => panic!("seed {seed}: {e}"),
+        })
+        .collect();
+    let final_cm = worst(&runs, |f| f.final_error_cm);
+    let heading = worst(&runs, |f| f.max_heading_error_deg);
+    assert!(
+        final_cm <= 3.0 && heading <= 2.0,
+        "final {final_cm:.2} cm, heading {heading:.2} deg"
+    );
+}
+
 /// Issue 11, the tag-free room under `slam`: final error at most 5 cm, at most 8 cm over
 /// the run, at most 2 % of black cells out of place.
 #[test]
