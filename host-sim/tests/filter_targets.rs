@@ -7,7 +7,7 @@
 
 use host_sim::consistency::{median, scored_bounds};
 use host_sim::scenario::SHIPPED;
-use host_sim::{run, Figures, PoseMode};
+use host_sim::{run, Figures, PoseMode, Scenario};
 use world::shipped::scenario;
 
 const SEEDS: std::ops::RangeInclusive<u64> = 1..=20;
@@ -16,20 +16,19 @@ const SEEDS: std::ops::RangeInclusive<u64> = 1..=20;
 const FILTERS: [PoseMode; 2] = [PoseMode::Filter, PoseMode::Slam];
 
 fn runs(name: &str, mode: PoseMode) -> Vec<Figures> {
-    runs_with(name, mode, |out| out.figures)
+    runs_with(&scenario(name), mode, |out| out.figures)
 }
 
-/// `keep` of each seed's run of the scenario `name`.
+/// `keep` of each seed's run of `scenario`.
 fn runs_with<T>(
-    name: &str,
+    scenario: &Scenario,
     mode: PoseMode,
     keep: impl Fn(host_sim::run::RunOutput) -> T,
 ) -> Vec<T> {
-    let scenario = scenario(name);
     SEEDS
-        .map(|seed| match run(&scenario, mode, seed) {
+        .map(|seed| match run(scenario, mode, seed) {
             Ok(out) => keep(out),
-            Err(e) => panic!("{name} seed {seed}: {e}"),
+            Err(e) => panic!("{} seed {seed}: {e}", scenario.name),
         })
         .collect()
 }
@@ -91,12 +90,13 @@ fn the_bound_holds_the_error_on_every_shipped_scenario() {
 fn the_bound_is_not_lazily_wide_on_every_shipped_scenario() {
     for mode in FILTERS {
         for name in SHIPPED.into_iter().filter(|n| tagged(n)) {
-            let (mut bounds, mut errors): (Vec<f64>, Vec<f64>) = runs_with(name, mode, |out| {
-                scored_bounds(&out.record.ticks).collect::<Vec<_>>()
-            })
-            .into_iter()
-            .flatten()
-            .unzip();
+            let (mut bounds, mut errors): (Vec<f64>, Vec<f64>) =
+                runs_with(&scenario(name), mode, |out| {
+                    scored_bounds(&out.record.ticks).collect::<Vec<_>>()
+                })
+                .into_iter()
+                .flatten()
+                .unzip();
             let (Some(bound), Some(error)) = (median(&mut bounds), median(&mut errors)) else {
                 panic!("{name}: no scored ticks");
             };
@@ -231,12 +231,7 @@ fn the_seed_mat_without_tags_with_the_gyro_reading_short() {
         scenario.sensors.gyro.scale_error < 0.0,
         "the seed's gyro reads long"
     );
-    let runs: Vec<Figures> = SEEDS
-        .map(|seed| match run(&scenario, PoseMode::Slam, seed) {
-            Ok(out) => out.figures,
-            Err(e) => panic!("seed {seed}: {e}"),
-        })
-        .collect();
+    let runs = runs_with(&scenario, PoseMode::Slam, |out| out.figures);
     let final_cm = worst(&runs, |f| f.final_error_cm);
     let heading = worst(&runs, |f| f.max_heading_error_deg);
     assert!(
