@@ -27,6 +27,7 @@ pub mod odometry;
 pub mod plausible;
 pub mod pose;
 pub mod slam;
+pub mod spin_closure;
 pub mod tag_range;
 pub mod tagfix;
 

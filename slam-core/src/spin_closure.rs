@@ -1,0 +1,331 @@
+//! How far a full turn on the spot truly turned, from the turn's own depth scans.
+//!
+//! Turning on the spot, the robot sees once round what it saw at the start. Its heading,
+//! integrated from the gyro, says where "once round" is; the ranges say where it really
+//! is. Laying the ranges of the turn's last scans over those of its first, bearing
+//! against bearing, and sliding them until they agree measures how far the integrated
+//! turn ran past the true one: the gyro's scale error over a whole turn, with no map and
+//! no tags. A map cannot do this while the turn is being mapped (the turn is what lays
+//! it), and the raw ranges reach the far walls the mapper stops short of.
+//!
+//! Each reading of the last scans is compared with the first scans' profile at the same
+//! bearing (interpolated between its two neighbours there), its disagreement measured in
+//! the depth sensor's noise at that range and capped at 3 sigma, so that the edges a zone
+//! mixes and readings that just miss a box count only so much. The slide goes in tenths
+//! of a degree over [`MAX_EXCESS_MDEG`] each way; the best is refined between its
+//! neighbours by a parabola. How sure it is comes from the whole surface, as a
+//! correlative matcher's covariance does (Olson 2009): each slide weighted by the
+//! likelihood its disagreement gives, the spread of those weights about their mean. A
+//! turn facing plain walls at its ends, whose ranges hardly change with bearing, agrees
+//! almost as well over a wide slide and says so.
+
+use crate::angle::Angle;
+use crate::frame::BEAMS;
+
+/// One tick of the turn: its heading as integrated, and the depth scan read there.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+pub struct SpinScan {
+    /// The heading, as the odometry gave it.
+    pub heading: Angle,
+    /// Range along each beam, millimetres.
+    pub ranges_mm: [Option<u16>; BEAMS],
+}
+
+/// The turn's measured excess: how far its integrated heading ran past the true one over
+/// the turn, positive when the heading turned further than the robot.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct Closure {
+    /// The excess, millidegrees.
+    pub excess_mdeg: i32,
+    /// The integrated turn it was measured over, millidegrees (a full turn and the
+    /// excess, give or take the fan).
+    pub turn_mdeg: i32,
+    /// Readings compared at the best slide.
+    pub compared: u32,
+    /// The excess's standard deviation, millidegrees: the spread of the slides, each
+    /// weighted by how well it agrees.
+    pub sd_mdeg: i32,
+}
+
+impl Closure {
+    /// The correction to the gyro's scale the excess says, parts per million: the true
+    /// rate is the integrated one times `1 + scale_ppm / 1e6`.
+    pub fn scale_ppm(&self) -> i32 {
+        let turn = i64::from(self.turn_mdeg.unsigned_abs().max(1));
+        let ppm = -i64::from(self.excess_mdeg) * 1_000_000 / turn;
+        ppm.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
+    }
+}
+
+/// Why a turn's closure was not measured.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum ClosureRefusal {
+    /// The scans do not turn a full turn, one way, less the fan: their ends do not look
+    /// the same way.
+    NotAFullTurn,
+    /// Too few readings at the turn's ends see the same walls to compare.
+    TooFewReadings,
+    /// The ranges agree best at the edge of the slide: the excess is beyond what is
+    /// searched, or the ends do not agree at all.
+    NoClosure,
+}
+
+/// The largest excess searched each way, millidegrees: twice the 2.7 degrees a turn of
+/// the seed's 0.75 % gyro scale error.
+pub const MAX_EXCESS_MDEG: i32 = 6_000;
+
+/// The slide's step, millidegrees.
+const SLIDE_MDEG: i32 = 100;
+
+/// The first scans, those this far into the turn, millidegrees, make the profile the
+/// last are laid over: enough for the fan's width and the slide.
+const PROFILE_MDEG: i32 = 60_000;
+
+/// The most readings the first scans' profile holds: 24 ticks of 8 beams, the first
+/// 60 degrees of a turn at the seed's 31.5 degrees a second and more.
+const PROFILE_READINGS: usize = 256;
+
+/// Neighbours in the profile further apart than this in bearing are not interpolated
+/// between: the wall between them was not seen.
+const MAX_GAP_MDEG: i32 = 3_000;
+
+/// The fewest readings a slide is judged on.
+const MIN_COMPARED: u32 = 20;
+
+/// The depth sensor's noise: 10 mm and 1 % of the range, a little above the seed's.
+const NOISE_MM: i32 = 10;
+const NOISE_PER_100: i32 = 1;
+
+/// The cap on a reading's squared disagreement, in its noise: 3 sigma.
+const CAP_Q8: i64 = 9 << 16;
+
+/// A reading of the turn: its bearing from the turn's start, along the turn, and range.
+#[derive(Clone, Copy, Debug, Default)]
+struct Reading {
+    bearing_mdeg: i32,
+    range_mm: i32,
+}
+
+/// Measures the excess of the turn `scans` made, each scan's beams at `beam_angles`
+/// from its heading. The scans are consecutive ticks of one turn on the spot, in order.
+pub fn measure(
+    scans: &[SpinScan],
+    beam_angles: &[Angle; BEAMS],
+) -> Result<Closure, ClosureRefusal> {
+    let mut total = 0;
+    each_turn(scans, |turn, _| total = turn);
+    let sign = if total < 0 { -1 } else { 1 };
+    let fan = fan_mdeg(beam_angles);
+    // The ends must look at least half the fan's width the same way.
+    if total.saturating_mul(sign) < 360_000 - fan / 2 {
+        return Err(ClosureRefusal::NotAFullTurn);
+    }
+    let beams = beam_angles.map(|a| a.to_millidegrees() * sign);
+    // The first scans' readings, by bearing along the turn.
+    let mut profile = [Reading::default(); PROFILE_READINGS];
+    let mut held = 0;
+    each_reading(scans, &beams, sign, |turn, r| {
+        if turn < PROFILE_MDEG && held < PROFILE_READINGS {
+            profile[held] = r;
+            held += 1;
+        }
+    });
+    let profile = &mut profile[..held];
+    profile.sort_unstable_by_key(|r| r.bearing_mdeg);
+    // The slide's cost at each step: capped squared disagreements and their count.
+    const STEPS: usize = (2 * MAX_EXCESS_MDEG / SLIDE_MDEG) as usize + 1;
+    let mut sums = [0i64; STEPS];
+    let mut counts = [0u32; STEPS];
+    let reach = 360_000 - fan - MAX_EXCESS_MDEG;
+    each_reading(scans, &beams, sign, |turn, r| {
+        if turn < reach {
+            return;
+        }
+        for (k, (sum, count)) in sums.iter_mut().zip(counts.iter_mut()).enumerate() {
+            let slide = k as i32 * SLIDE_MDEG - MAX_EXCESS_MDEG;
+            let at = r.bearing_mdeg - 360_000 - slide;
+            if let Some(seen) = interpolate(profile, at) {
+                *sum += disagreement_q8(r.range_mm, seen);
+                *count += 1;
+            }
+        }
+    });
+    let judged = |k: usize| (counts[k] >= MIN_COMPARED).then(|| (sums[k], counts[k]));
+    // The best slide: the least mean cost (compared as cross products, no division).
+    let mut best: Option<usize> = None;
+    for k in 0..STEPS {
+        let Some((s, n)) = judged(k) else { continue };
+        let better = best
+            .and_then(judged)
+            .is_none_or(|(bs, bn)| i128::from(s) * i128::from(bn) < i128::from(bs) * i128::from(n));
+        if better {
+            best = Some(k);
+        }
+    }
+    let k = best.ok_or(ClosureRefusal::TooFewReadings)?;
+    if k == 0 || k == STEPS - 1 {
+        return Err(ClosureRefusal::NoClosure);
+    }
+    let mean = |k: usize| judged(k).map(|(s, n)| s * 256 / i64::from(n));
+    let slide = k as i32 * SLIDE_MDEG - MAX_EXCESS_MDEG;
+    // The parabola through the best and its neighbours, where both are judged: its
+    // vertex refines the slide.
+    let refined = match (mean(k - 1), mean(k), mean(k + 1)) {
+        (Some(before), Some(at), Some(after)) if before - 2 * at + after > 0 => {
+            let curve = before - 2 * at + after;
+            let offset = i64::from(SLIDE_MDEG) * (before - after) / (2 * curve);
+            slide + offset.clamp(-i64::from(SLIDE_MDEG), i64::from(SLIDE_MDEG)) as i32
+        }
+        _ => slide,
+    };
+    let sd_mdeg = spread_mdeg(&mean, STEPS, counts[k]);
+    Ok(Closure {
+        excess_mdeg: refined,
+        turn_mdeg: total,
+        compared: counts[k],
+        sd_mdeg,
+    })
+}
+
+/// The spread of the slides about their weighted mean, millidegrees, each weighted by
+/// the likelihood of its disagreement over `n` readings, the cost a reading's mean
+/// squared disagreement in the sensor's noise (`mean`, Q24). A disagreement is the
+/// difference of two readings, each with that noise, so its variance is twice one's: the
+/// weight is `exp(-n (cost - best) / (2 x 2 max(best, 1)))`. Where the readings disagree
+/// more than the sensor's noise says at the best slide (its cost above one), the costs
+/// are taken in that larger noise. At least the slide's own step's spread.
+fn spread_mdeg(mean: &impl Fn(usize) -> Option<i64>, steps: usize, n: u32) -> i32 {
+    let best = (0..steps).filter_map(mean).min().unwrap_or(0);
+    let scale = best.max(1 << 24);
+    let (mut w_sum, mut wd_sum, mut wdd_sum) = (0i64, 0i64, 0i64);
+    for k in 0..steps {
+        let Some(cost) = mean(k) else { continue };
+        // The exponent in Q16: n (cost - best) / (4 scale); n at most a few thousand and
+        // the costs at most 9 in Q24, so the product fits 64 bits.
+        let x = i64::from(n) * (cost - best) * (1 << 14) / scale;
+        let w = exp_neg_q16(x);
+        let d = i64::from(k as i32 * SLIDE_MDEG - MAX_EXCESS_MDEG);
+        w_sum += w;
+        wd_sum += w * d;
+        wdd_sum += w * d * d;
+    }
+    if w_sum == 0 {
+        return MAX_EXCESS_MDEG;
+    }
+    let mu = wd_sum / w_sum;
+    let var = (wdd_sum / w_sum - mu * mu).max(0);
+    // A uniform step's own spread: the step over root 12.
+    let least = i64::from(SLIDE_MDEG * SLIDE_MDEG) / 12;
+    (var.max(least) as u64).isqrt().min(i32::MAX as u64) as i32
+}
+
+/// `exp(-x)` for `x >= 0` in Q16, to about 2 %: `2^(-x log2 e)`, its whole part a shift
+/// and its fraction a cubic. Zero beyond `x = 16`.
+fn exp_neg_q16(x_q16: i64) -> i64 {
+    if x_q16 >= 16 << 16 {
+        return 0;
+    }
+    // log2(e) in Q16.
+    let y = (x_q16.max(0) * 94_548) >> 16;
+    let (whole, f) = (y >> 16, y & 0xFFFF);
+    // 2^-f = 1 - 0.693147 f + 0.240227 f^2 - 0.0555041 f^3, each term Q16.
+    let f2 = (f * f) >> 16;
+    let f3 = (f2 * f) >> 16;
+    let frac = 65_536 - ((45_426 * f) >> 16) + ((15_743 * f2) >> 16) - ((3_637 * f3) >> 16);
+    frac >> whole
+}
+
+/// How wide the fan is, millidegrees.
+fn fan_mdeg(beam_angles: &[Angle; BEAMS]) -> i32 {
+    let mdeg = beam_angles.map(|a| a.to_millidegrees());
+    let widest = mdeg.iter().max().copied().unwrap_or(0);
+    let narrowest = mdeg.iter().min().copied().unwrap_or(0);
+    widest - narrowest
+}
+
+/// Calls `f` with each scan's turn from the first, millidegrees (unwrapped tick by tick,
+/// each tick's turn less than half a turn), and the scan.
+fn each_turn(scans: &[SpinScan], mut f: impl FnMut(i32, &SpinScan)) {
+    let Some(first) = scans.first() else { return };
+    let mut bits = 0i64;
+    let mut last = first.heading;
+    for s in scans {
+        bits += i64::from(s.heading.diff(last));
+        last = s.heading;
+        // 2^32 bits a turn; within i32 for any turn under 5,965 turns.
+        let mdeg = (bits * 360_000) >> 32;
+        f(
+            mdeg.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32,
+            s,
+        );
+    }
+}
+
+/// Calls `f` with each valid reading of `scans` and its scan's turn from the first,
+/// millidegrees along the turn; the reading's bearing is the turn and its beam's angle.
+fn each_reading(
+    scans: &[SpinScan],
+    beams: &[i32; BEAMS],
+    sign: i32,
+    mut f: impl FnMut(i32, Reading),
+) {
+    each_turn(scans, |turn, s| {
+        let turn = turn.saturating_mul(sign);
+        for (range, beam) in s.ranges_mm.iter().zip(beams) {
+            if let Some(r) = range {
+                let bearing_mdeg = turn + beam;
+                f(
+                    turn,
+                    Reading {
+                        bearing_mdeg,
+                        range_mm: i32::from(*r),
+                    },
+                );
+            }
+        }
+    });
+}
+
+/// The profile's range at `bearing`, between the two readings either side of it, if
+/// they are close enough in bearing.
+fn interpolate(profile: &[Reading], bearing: i32) -> Option<i32> {
+    let after = profile.partition_point(|r| r.bearing_mdeg < bearing);
+    let (a, b) = (profile.get(after.checked_sub(1)?)?, profile.get(after)?);
+    let gap = b.bearing_mdeg - a.bearing_mdeg;
+    if gap > MAX_GAP_MDEG {
+        return None;
+    }
+    if gap == 0 {
+        return Some((a.range_mm + b.range_mm) / 2);
+    }
+    let w = bearing - a.bearing_mdeg;
+    Some(a.range_mm + (b.range_mm - a.range_mm) * w / gap)
+}
+
+/// A reading's squared disagreement with the profile, in the sensor's noise at its range,
+/// Q16, capped at [`CAP_Q8`]'s 3 sigma.
+fn disagreement_q8(range_mm: i32, seen_mm: i32) -> i64 {
+    let noise = i64::from(NOISE_MM + range_mm * NOISE_PER_100 / 100).max(1);
+    let e = i64::from(range_mm - seen_mm) * 256 / noise;
+    (e * e).min(CAP_Q8)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exp_neg_is_within_two_percent_of_a_unit() {
+        for i in 0..=1600 {
+            let x = f64::from(i) / 100.0;
+            let got = exp_neg_q16((x * 65_536.0) as i64) as f64 / 65_536.0;
+            let want = (-x).exp();
+            assert!(
+                (got - want).abs() <= 0.02 * want + 2.0 / 65_536.0,
+                "{x}: {got} against {want}"
+            );
+        }
+        assert_eq!(exp_neg_q16(16 << 16), 0);
+        assert_eq!(exp_neg_q16(0), 65_536);
+    }
+}
