@@ -30,6 +30,7 @@ pub mod slam;
 pub mod spin_closure;
 pub mod tag_range;
 pub mod tagfix;
+pub mod wall_rate;
 
 pub use angle::Angle;
 pub use estimator::{
