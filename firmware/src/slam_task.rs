@@ -16,12 +16,16 @@
 //! `Schedule::DEFAULT` (one map chunk a tick) where the robot sends two (see
 //! [`TELEMETRY_SCHEDULE`]), so only the map sweep's pace differs.
 
+#[cfg(feature = "matching")]
+use core::cell::Cell;
 use embassy_rp::watchdog::Watchdog;
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::channel::Channel;
 use embassy_sync::watch::{Receiver, Watch};
 use embassy_time::{Duration, Instant, Ticker};
 use portable_atomic::Ordering;
+#[cfg(feature = "matching")]
+use slam_core::wall_rate::WallRate;
 use slam_core::{Decision, DriveCommand, GuardConfig, Localiser, Pose, SensorFrame, StepReport};
 use wire::telemetry::{encode, FirmwareVersion, Message, Schedule, Streamer, MAX_FRAME_LEN};
 
@@ -131,6 +135,13 @@ const FIRMWARE_VERSION: FirmwareVersion = FirmwareVersion {
 /// Each tick's [`TickReport`]. A `Watch`: one writer (this loop), several readers that
 /// each see the newest report and never hold the loop up; a slow reader skips reports.
 pub static REPORTS: Watch<CriticalSectionRawMutex, TickReport, REPORT_READERS> = Watch::new();
+
+/// The drive at a wall under way, measuring the flow's scale (`Slam::measure_walls`):
+/// beside the core, not in its retained state (a reset loses at most one drive), and not
+/// in the task's own state, whose layout the step inlined in it feels.
+#[cfg(feature = "matching")]
+static WALLS: embassy_sync::blocking_mutex::Mutex<CriticalSectionRawMutex, Cell<WallRate>> =
+    embassy_sync::blocking_mutex::Mutex::new(Cell::new(WallRate::new()));
 
 /// A follower of [`REPORTS`].
 pub type ReportReceiver = Receiver<'static, CriticalSectionRawMutex, TickReport, REPORT_READERS>;
@@ -242,7 +253,6 @@ pub async fn slam_task(
     // time and lets the sensors' tasks run in between.
     #[cfg(feature = "matching")]
     saved.slam().defer_matching(true);
-
     loop {
         ticker.next().await;
         let started = Instant::now();
@@ -309,7 +319,12 @@ pub async fn slam_task(
                     break;
                 }
             }
-            saved.slam().finish_match(report)
+            let report = saved.slam().finish_match(report);
+            // A drive at a wall measures the flow's scale, off the step as the match.
+            let mut walls = WALLS.lock(Cell::get);
+            let report = saved.slam().measure_walls(&mut walls, &frame, report);
+            WALLS.lock(|w| w.set(walls));
+            report
         };
         let matched = Instant::now();
         let slam = saved.slam();

@@ -636,10 +636,11 @@ fn cmd_bench(args: BenchArgs) -> Result<(), Failure> {
     let mut fixes = 0;
     for _ in 0..replays {
         slam.reset(start);
+        let mut walls = slam_core::wall_rate::WallRate::default();
         for frame in &frames {
-            fixes += u32::from(
-                slam.step(std::hint::black_box(frame)).fix == slam_core::FixOutcome::Taken,
-            );
+            let report = slam.step(std::hint::black_box(frame));
+            let report = slam.measure_walls(&mut walls, frame, report);
+            fixes += u32::from(report.fix == slam_core::FixOutcome::Taken);
         }
     }
     let steps = (replays * frames.len()) as f64;

@@ -21,6 +21,7 @@ use crate::run::{slam_config, to_core_pose, PoseMode, GRID_SIDES};
 use crate::scenario::Scenario;
 use crate::telemetry::TelemetryWriter;
 use serde::Serialize;
+use slam_core::wall_rate::WallRate;
 use slam_core::{GridMap, Slam};
 use std::fmt;
 use wire::telemetry::{
@@ -309,6 +310,8 @@ impl Run<'_> {
         };
         // The robot's number of the last tick stepped, and what the replay made of it.
         let mut last: Option<(u32, Tick, Option<FilterState>)> = None;
+        // The drive at a wall under way, as the robot keeps it beside its core.
+        let mut walls = WallRate::default();
         // The robot's number of the last `Tick` it sent: map chunks after it belong to it.
         let mut robot_tick: Option<u32> = None;
         for message in self.messages {
@@ -331,7 +334,7 @@ impl Run<'_> {
                             );
                         }
                     }
-                    last = Some(self.step(&mut slam, &mut writer, i));
+                    last = Some(self.step(&mut slam, &mut walls, &mut writer, i));
                     summary.steps += 1;
                 }
                 Message::Tick(t) => {
@@ -387,10 +390,12 @@ impl Run<'_> {
     fn step<const W: usize, const H: usize>(
         &self,
         slam: &mut Slam<W, H>,
+        walls: &mut WallRate,
         writer: &mut TelemetryWriter,
         i: &Inputs,
     ) -> (u32, Tick, Option<FilterState>) {
         let report = slam.step(&i.frame);
+        let report = slam.measure_walls(walls, &i.frame, report);
         writer.tick(
             i.time_ms,
             &i.frame,

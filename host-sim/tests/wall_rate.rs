@@ -4,7 +4,7 @@
 
 use host_sim::run::slam_config;
 use host_sim::{run, PoseMode};
-use slam_core::wall_rate::{fit_wall, FlowScale, WallRate};
+use slam_core::wall_rate::{fit_wall, FlowScale, WallRate, STRAIGHT_MDPS};
 use world::shipped::scenario;
 
 /// Every shipped world.
@@ -29,9 +29,6 @@ const NEAR_WALLS: [&str; 4] = [
     "blocked-route",
 ];
 
-/// A tick drove straight when the gyro turned less than this, millidegrees a second.
-const STRAIGHT_MDPS: i32 = 2_000;
-
 /// Each world's drives judged over seeds 1 to 20, and the true correction, ppm.
 fn drives(name: &str) -> (Vec<FlowScale>, f64) {
     let s = scenario(&format!("{name}.toml"));
@@ -45,7 +42,9 @@ fn drives(name: &str) -> (Vec<FlowScale>, f64) {
             .unwrap_or_else(|e| panic!("{name} seed {seed}: {e}"));
         let mut rate = WallRate::default();
         for f in &out.frames {
-            let straight = f.gyro.is_some_and(|g| g.rate_mdps.abs() < STRAIGHT_MDPS);
+            let straight = f
+                .gyro
+                .is_some_and(|g| g.rate_mdps.unsigned_abs() < STRAIGHT_MDPS);
             let forward = f
                 .flow
                 .map(|c| (i64::from(c.forward_counts) * um_per_count) >> 16);

@@ -19,6 +19,8 @@ use crate::tag_range::Witness;
 #[cfg(feature = "tag-range")]
 use crate::tag_range::{self, ZoneColumns};
 use crate::tagfix::{self, CameraConfig, FixConfig, FixOutcome, FixRejection, KnownTag, TagMap};
+#[cfg(feature = "matching")]
+use crate::wall_rate::{fit_wall, WallRate, STRAIGHT_MDPS};
 
 /// The depth sensor's fan and the mapper's range limit.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -795,10 +797,91 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         if !pending {
             return report;
         }
+        self.with_belief(report)
+    }
+
+    /// `report` with the pose and the filter's belief now. Out of line: one read-out of
+    /// the belief off the step for every caller, and the step's own left as it is.
+    #[cfg(feature = "matching")]
+    #[inline(never)]
+    fn with_belief(&self, report: StepReport) -> StepReport {
         StepReport {
             pose: self.pose,
             estimate: self.filter().map(Estimator::estimate),
             ..report
+        }
+    }
+
+    /// The walls ahead measure the flow sensor's scale ([`crate::wall_rate`]) from the
+    /// tick `step` took `frame` in, the drive under way in `walls` (the caller's, as the
+    /// frame is: kept out of the core's own state, whose layout the step's worst case
+    /// feels); returns `report` (the step's, or what [`Slam::finish_match`] returned from
+    /// it) with the pose and the filter's belief after it. Called after every step (after
+    /// [`Slam::finish_match`] by a caller that defers matching): off the step, and out
+    /// of line, so that the caller's loop (the firmware's task, the step inlined in it)
+    /// keeps its code.
+    #[cfg(feature = "matching")]
+    #[inline(never)]
+    pub fn measure_walls(
+        &mut self,
+        walls: &mut WallRate,
+        frame: &SensorFrame,
+        report: StepReport,
+    ) -> StepReport {
+        if !self.wall_tick(walls, frame, report.trust) {
+            return report;
+        }
+        self.with_belief(report)
+    }
+
+    /// The drive at a wall takes this tick, whose inputs `step` trusted as `trust`: a
+    /// tick that drove straight on a trusted gyro and flow, with a trusted scan of a wall
+    /// ahead, adds to it; any other ends it, and a drive long enough is a measurement of
+    /// the flow sensor's scale for the filter, which moves the pose at most a match's
+    /// step. Only with matching on. Returns whether the filter took a measurement.
+    #[cfg(feature = "matching")]
+    #[inline(never)]
+    fn wall_tick(&mut self, walls: &mut WallRate, frame: &SensorFrame, trust: Trust) -> bool {
+        if self.config.matching.is_none() || self.config.localiser != Localiser::Filter {
+            return false;
+        }
+        let straight = trust.gyro.is_none()
+            && frame
+                .gyro
+                .is_some_and(|g| g.rate_mdps.unsigned_abs() < STRAIGHT_MDPS);
+        let per_count = i64::from(self.config.odometry.flow_um_per_count_q16);
+        let forward = frame
+            .flow
+            .filter(|_| trust.flow.is_none())
+            .map(|f| (i64::from(f.forward_counts) * per_count) >> 16);
+        let wall = match (straight, forward, &frame.depth) {
+            (true, Some(_), Some(scan)) if trust.depth.is_none() => {
+                fit_wall(scan, &self.config.depth.beam_angles)
+            }
+            _ => None,
+        };
+        let forward_um = forward.map_or(0, |f| f.clamp(i32::MIN.into(), i32::MAX.into()) as i32);
+        let Some(measured) = walls.tick(forward_um, wall) else {
+            return false;
+        };
+        let then = self.pose;
+        let counters = &mut walls.counters;
+        let Some(outcome) = self.estimator.apply_flow_scale(&then, &measured) else {
+            counters.known += 1;
+            return false;
+        };
+        match outcome {
+            Ok(corrected) => {
+                counters.taken += 1;
+                self.carry_past(&RigidMotion::carrying(&then, &corrected));
+                self.estimator.settle();
+                true
+            }
+            Err(_) => {
+                counters.refused += 1;
+                self.estimator.settle();
+                false
+            }
         }
     }
 

@@ -40,6 +40,10 @@ pub struct FlowScale {
     pub ticks: u32,
 }
 
+/// A tick drove straight when the gyro turned slower than this, millidegrees a second: a
+/// robot holding its course, not one turning.
+pub const STRAIGHT_MDPS: u32 = 2_000;
+
 /// The fewest ends a wall is fitted to.
 const MIN_ENDS: usize = 6;
 
@@ -118,7 +122,8 @@ fn line(x: &[i64], y: &[i64]) -> Option<Line> {
     if sxx <= 0 {
         return None;
     }
-    let b = i64::try_from((i128::from(sxy) << 16) / i128::from(sxx)).ok()?;
+    // Within 2^43 (eight ends within 4 m, Q8), so the shift stays in 64 bits.
+    let b = sxy.checked_mul(1 << 16)? / sxx;
     // Each end's stray from the line, squared, Q16; the root mean square within the
     // limit.
     let strays = x.iter().zip(y).map(|(u, v)| {
@@ -153,24 +158,70 @@ fn line(x: &[i64], y: &[i64]) -> Option<Line> {
     }))
 }
 
-/// The drive under way: its ticks' nominal distance driven and wall distance, as sums.
+/// The drives judged since start: their measurements taken by the filter, refused
+/// (beyond its gate, or moving the pose too far even when believed least), and left
+/// aside because it already knew the scale better.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct WallCounters {
+    /// Measurements the filter took.
+    pub taken: u32,
+    /// Measurements it refused.
+    pub refused: u32,
+    /// Measurements it did not need.
+    pub known: u32,
+}
+
+/// The drive under way: its ticks' nominal distance driven and wall distance, as a
+/// running mean and co-moments (Welford's), which stay small where plain sums of
+/// squares would not fit 64 bits.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct WallRate {
+    /// The drives judged so far, by outcome.
+    pub counters: WallCounters,
     ticks: u32,
     /// The nominal distance driven since the drive began, micrometres.
     driven_um: i64,
     /// The last tick's wall distance, millimetres, and the first tick's cosine, Q16.
     last_mm: i64,
     first_cos: i64,
-    /// Sums over the drive's ticks of the driven distance `u` (millimetres), the wall's
-    /// distance `v` (millimetres), their squares and product, and the cosines (Q16).
-    su: i64,
-    sv: i64,
-    suu: i64,
-    svv: i64,
-    suv: i64,
-    scos: i64,
+    /// Means of the distance driven `u` and the wall's distance `v`, Q16 millimetres,
+    /// and of the cosines, Q16.
+    mean_u: i64,
+    mean_v: i64,
+    cos_sum: i64,
+    /// Co-moments `sum (u - mean u)(v - mean v)` and so on, Q8 square millimetres.
+    c_uu: i64,
+    c_uv: i64,
+    c_vv: i64,
 }
+
+impl WallRate {
+    /// No drive under way, none judged yet (for a `static`).
+    pub const fn new() -> WallRate {
+        WallRate {
+            counters: WallCounters {
+                taken: 0,
+                refused: 0,
+                known: 0,
+            },
+            ticks: 0,
+            driven_um: 0,
+            last_mm: 0,
+            first_cos: 0,
+            mean_u: 0,
+            mean_v: 0,
+            cos_sum: 0,
+            c_uu: 0,
+            c_uv: 0,
+            c_vv: 0,
+        }
+    }
+}
+
+/// The most ticks one drive takes (a minute): past it the drive is judged and another
+/// begins, so that its sums stay within 64 bits.
+const MAX_TICKS: u32 = 600;
 
 impl WallRate {
     /// Takes a tick: `forward_um`, the nominal distance the flow says the robot drove
@@ -184,16 +235,19 @@ impl WallRate {
                     && (i64::from(w.cos_q16) - self.first_cos).abs() <= MAX_TURN_COS_Q16)
         };
         match wall.filter(same_wall) {
-            Some(w) => {
+            Some(w) if self.ticks < MAX_TICKS => {
                 if self.ticks > 0 {
                     self.driven_um += i64::from(forward_um);
                 }
                 self.add(w);
                 None
             }
-            None => {
+            _ => {
                 let judged = self.judge();
-                *self = WallRate::default();
+                *self = WallRate {
+                    counters: self.counters,
+                    ..WallRate::default()
+                };
                 // A wall that jumped starts a drive of its own.
                 if let Some(w) = wall {
                     self.add(w);
@@ -204,49 +258,54 @@ impl WallRate {
     }
 
     fn add(&mut self, w: WallFit) {
-        let u = self.driven_um / 1000;
-        let v = i64::from(w.distance_mm);
         if self.ticks == 0 {
             self.first_cos = i64::from(w.cos_q16);
         }
         self.ticks += 1;
-        self.last_mm = v;
-        self.su += u;
-        self.sv += v;
-        self.suu += u * u;
-        self.svv += v * v;
-        self.suv += u * v;
-        self.scos += i64::from(w.cos_q16);
+        self.last_mm = i64::from(w.distance_mm);
+        self.cos_sum += i64::from(w.cos_q16);
+        // Within 2^31 mm driven (a minute at the drive's speed is under 2^15), Q16.
+        let u = (self.driven_um / 1000).clamp(-(1 << 30), 1 << 30) << 16;
+        let v = self.last_mm << 16;
+        let n = i64::from(self.ticks);
+        let du = u - self.mean_u;
+        let dv = v - self.mean_v;
+        self.mean_u += du / n;
+        self.mean_v += dv / n;
+        // Each product of two deviations taken to Q8 first, then back to Q8: a drive of
+        // a minute is under 2^15 mm and a wall under 2^12 mm away, so each product is
+        // within 2^46 and a minute's sums within 2^47.
+        let (eu, ev) = (u - self.mean_u, v - self.mean_v);
+        self.c_uu += ((du >> 8) * (eu >> 8)) >> 8;
+        self.c_uv += ((du >> 8) * (ev >> 8)) >> 8;
+        self.c_vv += ((dv >> 8) * (ev >> 8)) >> 8;
     }
 
     /// The drive so far, judged: the flow's scale from the slope of the wall's distance
-    /// against the distance driven, `-(1 + scale) cos`.
+    /// against the distance driven, `-(1 + scale) cos`, and its deviation from the
+    /// scatter about that slope.
     fn judge(&self) -> Option<FlowScale> {
-        if self.ticks < MIN_TICKS || self.driven_um.abs() < MIN_DRIVEN_UM {
+        if self.ticks < MIN_TICKS || self.driven_um.abs() < MIN_DRIVEN_UM || self.c_uu <= 0 {
             return None;
         }
-        let n = i128::from(self.ticks);
-        let suu = n * i128::from(self.suu) - i128::from(self.su) * i128::from(self.su);
-        let suv = n * i128::from(self.suv) - i128::from(self.su) * i128::from(self.sv);
-        let svv = n * i128::from(self.svv) - i128::from(self.sv) * i128::from(self.sv);
-        if suu <= 0 {
-            return None;
-        }
-        let cos = i128::from(self.scos) / n; // Q16
+        let n = i64::from(self.ticks);
+        let cos = self.cos_sum / n; // Q16
         if cos <= 0 {
             return None;
         }
-        // 1 + scale = -slope / cos, slope = suv / suu: in ppm.
-        let ratio_ppm = -suv * 1_000_000 * 65_536 / (suu * cos);
-        let scale_ppm = i32::try_from(ratio_ppm - 1_000_000).ok()?;
-        // The slope's standard deviation: the scatter about the line over the spread
-        // driven, sqrt(rss / (n - 2) / Suu) with rss = (svv - suv^2 / suu) / n.
-        let rss_n = svv - suv * suv / suu; // n times the residual sum of squares
-        let var_slope_ppm2 = rss_n.max(0) * 1_000_000 * 1_000_000 / ((n - 2) * suu);
-        let sd = (u128::try_from(var_slope_ppm2).ok()?.isqrt() as i128) * 65_536 / cos;
-        let sd_ppm = (i64::try_from(sd).ok()? * SD_WIDENING).max(MIN_SD_PPM);
+        // The slope, Q20 (a drive so long that the product leaves 64 bits is not judged).
+        let slope = self.c_uv.checked_mul(1 << 20)? / self.c_uu;
+        // 1 + scale = -slope / cos, Q20, then in ppm.
+        let ratio = -slope * (1 << 16) / cos;
+        let scale_ppm = ((ratio * 1_000_000) >> 20) - 1_000_000;
+        // The scatter about the slope: rss = c_vv - slope c_uv (Q8); the slope's variance
+        // rss / ((n - 2) c_uu), in ppm^2 (the Q8s cancel).
+        let rss = (self.c_vv - ((slope * (self.c_uv >> 4)) >> 16)).max(0);
+        let var_ppm2 = rss.saturating_mul(1_000_000_000_000) / ((n - 2) * self.c_uu);
+        let sd = (var_ppm2 as u64).isqrt() as i64 * (1 << 16) / cos;
+        let sd_ppm = sd.saturating_mul(SD_WIDENING).max(MIN_SD_PPM);
         Some(FlowScale {
-            scale_ppm,
+            scale_ppm: i32::try_from(scale_ppm).ok()?,
             sd_ppm: i32::try_from(sd_ppm).ok()?,
             driven_mm: i32::try_from(self.driven_um / 1000).ok()?,
             ticks: self.ticks,

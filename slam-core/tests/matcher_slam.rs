@@ -6,6 +6,7 @@ mod reference;
 
 use reference::RefPose;
 use slam_core::matcher::SWEEP_TICKS;
+use slam_core::wall_rate::{WallCounters, WallRate};
 use slam_core::{
     ConfigError, DepthScan, FlowDelta, GyroRate, Localiser, MatchingConfig, Pose, SensorFrame,
     Slam, SlamConfig, StepReport, BEAMS,
@@ -48,16 +49,17 @@ fn route() -> Vec<(i32, i32)> {
 /// Drives the route with the flow sensor reading 4 % short and the gyro 1 % high; returns
 /// the largest position error on the way, in millimetres, and the core.
 fn drive(localiser: Localiser, matching: bool) -> (f64, Slam<46, 46>) {
-    drive_matching(localiser, matching, None).0
+    let ((worst, slam, _), _) = drive_matching(localiser, matching, None);
+    (worst, slam)
 }
 
-/// [`drive`], and each tick's report; with `pieces`, each match deferred and searched
-/// that many pieces at a time before it is finished.
+/// [`drive`], the drives at a wall judged, and each tick's report; with `pieces`, each
+/// match deferred and searched that many pieces at a time before it is finished.
 fn drive_matching(
     localiser: Localiser,
     matching: bool,
     pieces: Option<usize>,
-) -> ((f64, Slam<46, 46>), Vec<StepReport>) {
+) -> ((f64, Slam<46, 46>, WallCounters), Vec<StepReport>) {
     let start = Pose::from_mm_mdeg(500, 500, 0);
     let mut slam: Slam<46, 46> = Slam::new(config(localiser, matching), start).unwrap();
     slam.defer_matching(pieces.is_some());
@@ -68,6 +70,7 @@ fn drive_matching(
         heading: 0.0,
     };
     let mut worst: f64 = 0.0;
+    let mut walls = WallRate::default();
     for (counts, rate) in route() {
         truth = reference::odometry_tick(truth, Some((counts, 0)), Some(rate), DT_US, 100.0);
         let ranges_mm = reference::mat_scan(&truth);
@@ -85,25 +88,29 @@ fn drive_matching(
             while !slam.search_match(pieces) {}
             report = slam.finish_match(report);
         }
+        report = slam.measure_walls(&mut walls, &frame, report);
         reports.push(report);
         let p = report.pose;
         let error = (p.x_um as f64 - truth.x_um).hypot(p.y_um as f64 - truth.y_um) / 1000.0;
         worst = worst.max(error);
     }
-    ((worst, slam), reports)
+    ((worst, slam, walls.counters), reports)
 }
 
 #[test]
 fn a_match_searched_in_pieces_is_the_steps_own_bit_for_bit() {
-    let ((_, whole), whole_reports) = drive_matching(Localiser::Filter, true, None);
+    let ((_, whole, whole_walls), whole_reports) = drive_matching(Localiser::Filter, true, None);
     for at_a_time in [1, 2, 5] {
-        let ((_, pieces), piece_reports) = drive_matching(Localiser::Filter, true, Some(at_a_time));
+        let ((_, pieces, piece_walls), piece_reports) =
+            drive_matching(Localiser::Filter, true, Some(at_a_time));
         assert_eq!(piece_reports, whole_reports, "{at_a_time} pieces at a time");
         assert_eq!(pieces.map().rows(), whole.map().rows());
         assert_eq!(pieces.match_counters(), whole.match_counters());
         assert_eq!(pieces.last_match(), whole.last_match());
+        assert_eq!(piece_walls, whole_walls);
     }
     assert!(whole.match_counters().used > 300);
+    assert!(whole_walls.taken > 0, "{whole_walls:?}");
 }
 
 #[test]

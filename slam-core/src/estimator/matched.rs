@@ -20,6 +20,7 @@ use super::units::{self, FINE_SHIFT};
 use super::State;
 use crate::matcher::{Match, MatchRefusal, Pins};
 use crate::pose::Pose;
+use crate::wall_rate::FlowScale;
 
 /// What the filter adds to a match's own spread: the map it matched against was built at
 /// poses no better than the filter's, which the score surface cannot know.
@@ -174,7 +175,7 @@ impl MatchCounters {
     }
 }
 
-/// One scalar measurement: a row over x, y and heading (Q16, each entry within 1.0),
+/// One scalar measurement: a row over up to three states (Q16, each entry within 1.0),
 /// the innovation and its noise, in covariance units.
 #[derive(Clone, Copy)]
 struct Scalar {
@@ -439,24 +440,75 @@ impl Estimator {
         map: &MapUncertainty,
         step_um: u32,
     ) -> Result<Pose, MatchRefusal> {
-        let then = matched.prediction;
         let parts = Components::of(matched, noise);
         let floors = noise.floors(map);
-        // Each pair is gated given the ones before; one beyond the gate refuses the whole
-        // match, so the pairs go into a copy (a 6 x 6 matrix: a few hundred bytes).
-        let mut trial = self.clone();
-        let mut fine = trial.matched(matched.pins, &parts, &floors)?;
+        self.stepped(
+            &matched.prediction,
+            step_um,
+            |trial, widened| match widened {
+                0 => trial.matched(matched.pins, &parts, &floors),
+                bits => trial.matched(matched.pins, &parts.widened(bits), &floors),
+            },
+        )
+    }
+
+    /// Updates the filter from a drive's measurement of the flow sensor's scale
+    /// ([`crate::wall_rate`]), taken at `then`, the pose now, moving the position at most
+    /// [`MATCH_STEP_UM`] as a match does: the scale's error moved the pose along the drive,
+    /// and the filter's belief of how much is corrected with it. Returns the corrected
+    /// pose, `None` if the filter already knows the scale better than the drive measured
+    /// it (tags teach it fast; the drive would add little and move what they placed), or
+    /// why the measurement was refused.
+    pub fn apply_flow_scale(
+        &mut self,
+        then: &Pose,
+        measured: &FlowScale,
+    ) -> Option<Result<Pose, MatchRefusal>> {
+        let sd = units::scale_from_ppm(i64::from(measured.sd_ppm)).max(1);
+        if self.p.get(State::FlowScale, State::FlowScale) <= sd.saturating_mul(sd) {
+            return None;
+        }
+        let learned = i64::from(self.calibration().flow_scale_ppm);
+        let nu = units::scale_from_ppm(i64::from(measured.scale_ppm) - learned);
+        Some(self.stepped(then, MATCH_STEP_UM, |trial, widened| {
+            let scalar = Scalar {
+                h: [(State::FlowScale, 1 << 16), (State::X, 0), (State::Y, 0)],
+                nu,
+                r: (sd * sd).saturating_mul(1 << widened),
+                floor: 0,
+            };
+            let mut fine = [0i64; N];
+            trial.update_pair(scalar, None, &mut fine)?;
+            Ok(fine)
+        }))
+    }
+
+    /// One update, `attempt`, tried on a copy of the filter with its measurement's
+    /// covariance widened by `widened` bits (0 first): if it would move the position
+    /// further than `step_um` it is tried again widened (deviations doubled, up to 64
+    /// times), and refused as beyond the gate if it still would. Each part of an update is
+    /// gated given the ones before, and one beyond the gate refuses the whole, so the
+    /// parts go into a copy (a 6 x 6 matrix: a few hundred bytes). Returns the pose `then`
+    /// corrected.
+    fn stepped(
+        &mut self,
+        then: &Pose,
+        step_um: u32,
+        attempt: impl Fn(&mut Estimator, u32) -> Result<[i64; N], MatchRefusal>,
+    ) -> Result<Pose, MatchRefusal> {
         let mut widened = 0;
-        while steps_further(&fine, step_um) {
+        loop {
+            let mut trial = self.clone();
+            let fine = attempt(&mut trial, widened)?;
+            if !steps_further(&fine, step_um) {
+                *self = trial;
+                return Ok(self.corrected(then, fine));
+            }
             widened += WIDEN_SHIFT;
             if widened > MOST_WIDENED {
                 return Err(MatchRefusal::Gate);
             }
-            trial = self.clone();
-            fine = trial.matched(matched.pins, &parts.widened(widened), &floors)?;
         }
-        *self = trial;
-        Ok(self.corrected(&then, fine))
     }
 
     /// Updates the filter from the match's components `parts`, measured along what `pins`
