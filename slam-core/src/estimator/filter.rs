@@ -2,7 +2,7 @@
 
 use super::config::{self, EstimatorConfig};
 use super::covariance::{Covariance, Entry, N};
-use super::fixed::{mul_shift, square};
+use super::fixed::{fits_i32, mul_shift, square};
 use super::units::{self, FINE_SHIFT};
 use super::{Calibration, Estimate, PoseCovariance, State, TagCounters};
 use crate::angle::Angle;
@@ -41,7 +41,7 @@ const CEILING: [i32; N] = [
     FLOW_SCALE_MAX * FLOW_SCALE_MAX,
 ];
 
-/// The calibration's limits in fine units.
+/// The calibration's limits in fine units (each under 2^23).
 const CALIBRATION_LIMIT: [i64; 3] = [
     (GYRO_SCALE_MAX as i64) << FINE_SHIFT,
     (GYRO_BIAS_MAX as i64) << FINE_SHIFT,
@@ -298,9 +298,18 @@ impl Estimator {
     }
 
     /// Adds a correction, in fine units, to the calibration, within its limits.
+    ///
+    /// In 32 bits where both fit them (the calibration always does: its limits are under
+    /// 2^23), where a sum saturates only far past the limits: the M0+ takes 64-bit sums
+    /// and compares in pairs of instructions.
     pub(super) fn correct_calibration(&mut self, fine: [i64; 3]) {
         for ((c, d), limit) in self.calibration.iter_mut().zip(fine).zip(CALIBRATION_LIMIT) {
-            *c = c.saturating_add(d).clamp(-limit, limit);
+            *c = if fits_i32(*c) && fits_i32(d) {
+                let limit = limit as i32;
+                i64::from((*c as i32).saturating_add(d as i32).clamp(-limit, limit))
+            } else {
+                c.saturating_add(d).clamp(-limit, limit)
+            };
         }
     }
 
@@ -311,13 +320,9 @@ impl Estimator {
         self.bound_variances();
         let [fx, fy, fh, gs, gb, fs] = fine;
         self.correct_calibration([gs, gb, fs]);
-        let shift = |um: i32, fine: i64| {
-            (i64::from(um) + units::um_from_fine_position(fine))
-                .clamp(i32::MIN as i64, i32::MAX as i64) as i32
-        };
         Pose {
-            x_um: shift(then.x_um, fx),
-            y_um: shift(then.y_um, fy),
+            x_um: moved_um(then.x_um, fx),
+            y_um: moved_um(then.y_um, fy),
             heading: then.heading + Angle::from_bits(units::bits_from_fine_heading(fh) as u32),
         }
     }
@@ -422,6 +427,19 @@ impl NoiseParts {
     }
 }
 
+/// A coordinate `um` moved by a correction of `fine` position units, saturating.
+#[inline(always)]
+fn moved_um(um: i32, fine: i64) -> i32 {
+    if fine.unsigned_abs() < 1 << 24 {
+        // Within 4 m: `fine 125` fits 32 bits, and the M0+ adds and clamps them in an
+        // instruction or two, 64 bits in several.
+        um.saturating_add(((fine as i32) * 125 + (1 << 8)) >> 9)
+    } else {
+        (i64::from(um) + units::um_from_fine_position(fine))
+            .clamp(i32::MIN as i64, i32::MAX as i64) as i32
+    }
+}
+
 /// The camera's noise in the filter's units, worked out once from the configuration.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct SightingNoise {
@@ -484,5 +502,30 @@ mod tests {
         let near = |got: i64, want: i64| (got - want).abs() * 50 <= want;
         assert!(near(heading6, 36 * heading), "{heading6} vs 36 x {heading}");
         assert!(near(x6, 36 * x), "{x6} vs 36 x {x}");
+    }
+
+    /// The 32-bit shortcuts give the 64-bit sums bit for bit: a coordinate moved by a
+    /// correction, and the calibration corrected, both saturating at their limits.
+    #[test]
+    fn the_32_bit_corrections_are_the_64_bit_ones() {
+        let mut rng = crate::lcg::Lcg::new(29);
+        for n in 0..200_000u32 {
+            let um = ((rng.next_u64() >> 32) as i32) >> (n % 8);
+            let fine = (i64::from((rng.next_u64() >> 32) as i32) << 8) >> (n % 40);
+            let want = (i64::from(um) + units::um_from_fine_position(fine))
+                .clamp(i32::MIN as i64, i32::MAX as i64) as i32;
+            assert_eq!(moved_um(um, fine), want, "{um} + {fine}");
+        }
+        let mut filter = Estimator::new(EstimatorConfig::SEED);
+        for n in 0..200_000u32 {
+            let d: [i64; 3] =
+                core::array::from_fn(|_| (i64::from((rng.next_u64() >> 32) as i32) << 12) >> (n % 44));
+            let mut want = filter.calibration;
+            for ((c, d), limit) in want.iter_mut().zip(d).zip(CALIBRATION_LIMIT) {
+                *c = c.saturating_add(d).clamp(-limit, limit);
+            }
+            filter.correct_calibration(d);
+            assert_eq!(filter.calibration, want, "{d:?}");
+        }
     }
 }
