@@ -435,8 +435,8 @@ fn moved_um(um: i32, fine: i64) -> i32 {
         // instruction or two, 64 bits in several.
         um.saturating_add(((fine as i32) * 125 + (1 << 8)) >> 9)
     } else {
-        (i64::from(um) + units::um_from_fine_position(fine))
-            .clamp(i32::MIN as i64, i32::MAX as i64) as i32
+        (i64::from(um) + units::um_from_fine_position(fine)).clamp(i32::MIN as i64, i32::MAX as i64)
+            as i32
     }
 }
 
@@ -518,8 +518,9 @@ mod tests {
         }
         let mut filter = Estimator::new(EstimatorConfig::SEED);
         for n in 0..200_000u32 {
-            let d: [i64; 3] =
-                core::array::from_fn(|_| (i64::from((rng.next_u64() >> 32) as i32) << 12) >> (n % 44));
+            let d: [i64; 3] = core::array::from_fn(|_| {
+                (i64::from((rng.next_u64() >> 32) as i32) << 12) >> (n % 44)
+            });
             let mut want = filter.calibration;
             for ((c, d), limit) in want.iter_mut().zip(d).zip(CALIBRATION_LIMIT) {
                 *c = c.saturating_add(d).clamp(-limit, limit);
