@@ -4,7 +4,7 @@
 
 use host_sim::run::slam_config;
 use host_sim::{run, PoseMode};
-use slam_core::wall_rate::{fit_wall, FlowScale, WallRate, STRAIGHT_MDPS};
+use slam_core::wall_rate::{Believed, FlowScale, WallRate};
 use world::shipped::scenario;
 
 /// Every shipped world.
@@ -33,8 +33,6 @@ const NEAR_WALLS: [&str; 4] = [
 fn drives(name: &str) -> (Vec<FlowScale>, f64) {
     let s = scenario(&format!("{name}.toml"));
     let config = slam_config(&s);
-    let beams = config.depth.beam_angles;
-    let um_per_count = i64::from(config.odometry.flow_um_per_count_q16);
     let truth = (1.0 / (1.0 + s.sensors.flow.scale_error) - 1.0) * 1e6;
     let mut judged = Vec::new();
     for seed in 1..=20 {
@@ -42,18 +40,12 @@ fn drives(name: &str) -> (Vec<FlowScale>, f64) {
             .unwrap_or_else(|e| panic!("{name} seed {seed}: {e}"));
         let mut rate = WallRate::default();
         for f in &out.frames {
-            let straight = f
-                .gyro
-                .is_some_and(|g| g.rate_mdps.unsigned_abs() < STRAIGHT_MDPS);
-            let forward = f
-                .flow
-                .map(|c| (i64::from(c.forward_counts) * um_per_count) >> 16);
-            let wall = match (straight, forward, &f.depth) {
-                (true, Some(_), Some(scan)) => fit_wall(scan, &beams),
-                _ => None,
-            };
-            let forward_um = i32::try_from(forward.unwrap_or(0)).unwrap_or(0);
-            judged.extend(rate.tick(forward_um, wall));
+            judged.extend(rate.observe(
+                f,
+                config.odometry.flow_um_per_count_q16,
+                &config.depth.beam_angles,
+                Believed::ALL,
+            ));
         }
     }
     (judged, truth)

@@ -20,7 +20,7 @@ use crate::tag_range::Witness;
 use crate::tag_range::{self, ZoneColumns};
 use crate::tagfix::{self, CameraConfig, FixConfig, FixOutcome, FixRejection, KnownTag, TagMap};
 #[cfg(feature = "matching")]
-use crate::wall_rate::{fit_wall, WallRate, STRAIGHT_MDPS};
+use crate::wall_rate::{Believed, WallRate};
 
 /// The depth sensor's fan and the mapper's range limit.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -865,23 +865,17 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         if self.config.matching.is_none() || self.config.localiser != Localiser::Filter {
             return false;
         }
-        let straight = trust.gyro.is_none()
-            && frame
-                .gyro
-                .is_some_and(|g| g.rate_mdps.unsigned_abs() < STRAIGHT_MDPS);
-        let per_count = i64::from(self.config.odometry.flow_um_per_count_q16);
-        let forward = frame
-            .flow
-            .filter(|_| trust.flow.is_none())
-            .map(|f| (i64::from(f.forward_counts) * per_count) >> 16);
-        let wall = match (straight, forward, &frame.depth) {
-            (true, Some(_), Some(scan)) if trust.depth.is_none() => {
-                fit_wall(scan, &self.config.depth.beam_angles)
-            }
-            _ => None,
+        let believed = Believed {
+            gyro: trust.gyro.is_none(),
+            flow: trust.flow.is_none(),
+            depth: trust.depth.is_none(),
         };
-        let forward_um = forward.map_or(0, |f| f.clamp(i32::MIN.into(), i32::MAX.into()) as i32);
-        let Some(measured) = walls.tick(forward_um, wall) else {
+        let Some(measured) = walls.observe(
+            frame,
+            self.config.odometry.flow_um_per_count_q16,
+            &self.config.depth.beam_angles,
+            believed,
+        ) else {
             return false;
         };
         let then = self.pose;
@@ -894,15 +888,11 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             Ok(corrected) => {
                 counters.taken += 1;
                 self.carry_past(&RigidMotion::carrying(&then, &corrected));
-                self.estimator.settle();
-                true
             }
-            Err(_) => {
-                counters.refused += 1;
-                self.estimator.settle();
-                false
-            }
+            Err(_) => counters.refused += 1,
         }
+        self.estimator.settle();
+        outcome.is_ok()
     }
 
     /// Whether a match is due, in progress or found and not yet applied.

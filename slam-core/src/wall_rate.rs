@@ -15,7 +15,7 @@
 //! drive is judged when such ticks stop, if it was long enough.
 
 use crate::angle::Angle;
-use crate::frame::{DepthScan, BEAMS};
+use crate::frame::{DepthScan, SensorFrame, BEAMS};
 
 /// A wall fitted to one scan: where it is and how it faces the nose.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -175,7 +175,7 @@ pub struct WallCounters {
 /// The drive under way: its ticks' nominal distance driven and wall distance, as a
 /// running mean and co-moments (Welford's), which stay small where plain sums of
 /// squares would not fit 64 bits.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug)]
 pub struct WallRate {
     /// The drives judged so far, by outcome.
     pub counters: WallCounters,
@@ -219,11 +219,65 @@ impl WallRate {
     }
 }
 
+impl Default for WallRate {
+    fn default() -> WallRate {
+        WallRate::new()
+    }
+}
+
+/// Which of a tick's inputs may be measured from: a doubted one is left out.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct Believed {
+    /// The gyro: a drive is straight only by a believed rate.
+    pub gyro: bool,
+    /// The flow sensor's distance driven.
+    pub flow: bool,
+    /// The depth scan, whose wall is fitted.
+    pub depth: bool,
+}
+
+impl Believed {
+    /// Every input believed.
+    pub const ALL: Believed = Believed {
+        gyro: true,
+        flow: true,
+        depth: true,
+    };
+}
+
 /// The most ticks one drive takes (a minute): past it the drive is judged and another
 /// begins, so that its sums stay within 64 bits.
 const MAX_TICKS: u32 = 600;
 
 impl WallRate {
+    /// Takes a tick of `frame`, of the inputs `believed`: the flow's nominal distance
+    /// (`flow_um_per_count_q16`, its calibration not applied) and, driving straight (the
+    /// gyro's rate under [`STRAIGHT_MDPS`]), the wall fitted to its scan; as
+    /// [`WallRate::tick`].
+    pub fn observe(
+        &mut self,
+        frame: &SensorFrame,
+        flow_um_per_count_q16: i32,
+        beam_angles: &[Angle; BEAMS],
+        believed: Believed,
+    ) -> Option<FlowScale> {
+        let straight = believed.gyro
+            && frame
+                .gyro
+                .is_some_and(|g| g.rate_mdps.unsigned_abs() < STRAIGHT_MDPS);
+        let per_count = i64::from(flow_um_per_count_q16);
+        let forward = frame
+            .flow
+            .filter(|_| believed.flow)
+            .map(|f| (i64::from(f.forward_counts) * per_count) >> 16);
+        let wall = match (straight, forward, &frame.depth) {
+            (true, Some(_), Some(scan)) if believed.depth => fit_wall(scan, beam_angles),
+            _ => None,
+        };
+        let forward_um = forward.map_or(0, |f| f.clamp(i32::MIN.into(), i32::MAX.into()) as i32);
+        self.tick(forward_um, wall)
+    }
+
     /// Takes a tick: `forward_um`, the nominal distance the flow says the robot drove
     /// since the last (its calibration not applied), and `wall`, the wall fitted to the
     /// tick's scan if the robot drove straight and one fitted. Returns the drive's

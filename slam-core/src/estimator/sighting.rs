@@ -3,7 +3,7 @@
 use super::covariance::{GAIN_SHIFT, N};
 use super::filter::Estimator;
 use super::fixed::{fits_i32, mul_q16_unit, mul_shift, mul_shift_each, square, Reciprocal};
-use super::step_limit::{share_of_step, TagShare};
+use super::step_limit::{share_of_move, TagShare};
 use super::units::{self, FINE_SHIFT};
 use super::{State, TagRefusal};
 use crate::angle::{sin_cos_of_vector, Angle, TRIG_ONE};
@@ -190,10 +190,11 @@ impl Estimator {
     }
 
     /// [`Estimator::sight`] for a sighting whose correction may be longer than `step_um`:
-    /// measured, and if it is, taken in part. A share `g` of the Kalman correction, with
-    /// the covariance the Joseph form gives that gain, `P - g (2 - g) K S K'`, which is
-    /// `P` moved the share `g (2 - g)` of the way to the full update's: the filter stays
-    /// as unsure as the part it took leaves it, and the next pictures bring the rest.
+    /// taken, and if it moved the position further than that, taken back in part. A
+    /// share `g` of the Kalman correction (of the pose and the calibration), with the
+    /// covariance the Joseph form gives that gain, `P - g (2 - g) K S K'`, which is `P`
+    /// moved the share `g (2 - g)` of the way to the full update's: the filter stays as
+    /// unsure as the part it took leaves it, and the next pictures bring the rest.
     #[cold]
     #[inline(never)]
     fn sight_within(
@@ -204,23 +205,35 @@ impl Estimator {
         then: Option<Pose>,
         step_um: u32,
     ) -> Result<Pose, TagRefusal> {
-        let before = self.p;
-        match self.sight_fine(detection, tag, camera, then, None) {
-            Ok((then, fine)) => {
-                let fine = match share_of_step(&fine, step_um) {
-                    Some(share) => {
-                        let kept = (share * ((2 << 16) - share)) >> 16;
-                        self.p.move_from(&before, kept);
-                        mul_shift_each(&fine, share, 16)
-                    }
-                    None => fine,
-                };
-                Ok(self.corrected(&then, fine))
-            }
-            Err(NotTaken::Refused(refusal)) => Err(refusal),
+        let (p, calibration) = (self.p, self.calibration);
+        let full = match self.try_sight(detection, tag, camera, then, None) {
+            Ok(full) => full,
+            Err(NotTaken::Refused(refusal)) => return Err(refusal),
             // Not asked for.
-            Err(NotTaken::MayStepFurther) => Err(TagRefusal::Gate),
+            Err(NotTaken::MayStepFurther) => return Err(TagRefusal::Gate),
+        };
+        let Some(then) = then else {
+            return Ok(full);
+        };
+        let moved = (
+            i64::from(full.x_um) - i64::from(then.x_um),
+            i64::from(full.y_um) - i64::from(then.y_um),
+        );
+        let Some(share) = share_of_move(moved, step_um) else {
+            return Ok(full);
+        };
+        let kept = (share * ((2 << 16) - share)) >> 16;
+        self.p.move_from(&p, kept);
+        for (now, was) in self.calibration.iter_mut().zip(calibration) {
+            *now = was + mul_shift(*now - was, share, 16);
         }
+        let part = |d: i64| mul_shift(d, share, 16) as i32;
+        let turned = i64::from((full.heading - then.heading).signed_bits());
+        Ok(Pose {
+            x_um: then.x_um.saturating_add(part(moved.0)),
+            y_um: then.y_um.saturating_add(part(moved.1)),
+            heading: then.heading + Angle::from_bits(part(turned) as u32),
+        })
     }
 
     /// Counts a sighting's outcome by cause, and passes it on.

@@ -54,29 +54,27 @@ impl TagShare {
     }
 }
 
-/// How far the correction `fine` moves the position, micrometres squared.
-pub(super) fn step_squared(fine: &[i64; N]) -> u64 {
-    let dx = units::um_from_fine_position(fine[State::X as usize]);
-    let dy = units::um_from_fine_position(fine[State::Y as usize]);
-    // Each within 2^31 um (2 km) before squaring: the sum fits 64 bits unsigned.
-    let square = |d: i64| d.unsigned_abs().min(1 << 31).pow(2);
-    square(dx) + square(dy)
-}
-
 /// Whether the correction `fine` moves the position further than `step_um`.
 pub(super) fn steps_further(fine: &[i64; N], step_um: u32) -> bool {
-    let most = u64::from(step_um);
-    step_squared(fine) > most * most
+    let dx = units::um_from_fine_position(fine[State::X as usize]);
+    let dy = units::um_from_fine_position(fine[State::Y as usize]);
+    further((dx, dy), step_um).is_some()
 }
 
-/// The share of the correction `fine` that moves the position `step_um`, Q16 (below
-/// 1.0), or `None` if the whole moves it no further.
-pub(super) fn share_of_step(fine: &[i64; N], step_um: u32) -> Option<i64> {
-    let squared = step_squared(fine);
+/// The square of a move by `(dx, dy)` micrometres, if it is longer than `step_um`.
+fn further((dx, dy): (i64, i64), step_um: u32) -> Option<u64> {
+    // Each held within 2^31 um (2 km) before squaring: the sum fits 64 bits unsigned.
+    let square = |d: i64| d.unsigned_abs().min(1 << 31).pow(2);
+    let squared = square(dx) + square(dy);
     let most = u64::from(step_um);
-    if squared <= most * most {
-        return None;
-    }
+    (squared > most * most).then_some(squared)
+}
+
+/// The share of a move of the position by `(dx, dy)` micrometres that moves it
+/// `step_um`, Q16 (below 1.0), or `None` if the whole moves it no further.
+pub(super) fn share_of_move(moved: (i64, i64), step_um: u32) -> Option<i64> {
+    let squared = further(moved, step_um)?;
+    let most = u64::from(step_um);
     let length = isqrt(squared).max(1);
     Some(((most << 16) / length).min((1 << 16) - 1) as i64)
 }
