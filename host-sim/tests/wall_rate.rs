@@ -4,7 +4,8 @@
 
 use host_sim::run::slam_config;
 use host_sim::{run, PoseMode};
-use slam_core::wall_rate::{Believed, FlowScale, WallRate};
+use slam_core::wall_rate::{FlowScale, WallRate};
+use slam_core::Trust;
 use world::shipped::scenario;
 
 /// Every shipped world.
@@ -44,7 +45,7 @@ fn drives(name: &str) -> (Vec<FlowScale>, f64) {
                 f,
                 config.odometry.flow_um_per_count_q16,
                 &config.depth.beam_angles,
-                Believed::ALL,
+                &Trust::default(),
             ));
         }
     }

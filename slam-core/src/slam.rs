@@ -20,7 +20,7 @@ use crate::tag_range::Witness;
 use crate::tag_range::{self, ZoneColumns};
 use crate::tagfix::{self, CameraConfig, FixConfig, FixOutcome, FixRejection, KnownTag, TagMap};
 #[cfg(feature = "matching")]
-use crate::wall_rate::{Believed, WallRate};
+use crate::wall_rate::WallRate;
 
 /// The depth sensor's fan and the mapper's range limit.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -845,16 +845,11 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         if self.config.matching.is_none() || self.config.localiser != Localiser::Filter {
             return false;
         }
-        let believed = Believed {
-            gyro: trust.gyro.is_none(),
-            flow: trust.flow.is_none(),
-            depth: trust.depth.is_none(),
-        };
         let Some(measured) = walls.observe(
             frame,
             self.config.odometry.flow_um_per_count_q16,
             &self.config.depth.beam_angles,
-            believed,
+            &trust,
         ) else {
             return false;
         };

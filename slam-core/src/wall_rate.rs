@@ -16,6 +16,7 @@
 
 use crate::angle::Angle;
 use crate::frame::{DepthScan, SensorFrame, BEAMS};
+use crate::plausible::Trust;
 
 /// A wall fitted to one scan: where it is and how it faces the nose.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -225,53 +226,33 @@ impl Default for WallRate {
     }
 }
 
-/// Which of a tick's inputs may be measured from: a doubted one is left out.
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
-pub struct Believed {
-    /// The gyro: a drive is straight only by a believed rate.
-    pub gyro: bool,
-    /// The flow sensor's distance driven.
-    pub flow: bool,
-    /// The depth scan, whose wall is fitted.
-    pub depth: bool,
-}
-
-impl Believed {
-    /// Every input believed.
-    pub const ALL: Believed = Believed {
-        gyro: true,
-        flow: true,
-        depth: true,
-    };
-}
-
 /// The most ticks one drive takes (a minute): past it the drive is judged and another
 /// begins, so that its sums stay within 64 bits.
 const MAX_TICKS: u32 = 600;
 
 impl WallRate {
-    /// Takes a tick of `frame`, of the inputs `believed`: the flow's nominal distance
-    /// (`flow_um_per_count_q16`, its calibration not applied) and, driving straight (the
-    /// gyro's rate under [`STRAIGHT_MDPS`]), the wall fitted to its scan; as
+    /// Takes a tick of `frame`, of the inputs `trust` does not doubt: the flow's nominal
+    /// distance (`flow_um_per_count_q16`, its calibration not applied) and, driving
+    /// straight (the gyro's rate under [`STRAIGHT_MDPS`]), the wall fitted to its scan; as
     /// [`WallRate::tick`].
     pub fn observe(
         &mut self,
         frame: &SensorFrame,
         flow_um_per_count_q16: i32,
         beam_angles: &[Angle; BEAMS],
-        believed: Believed,
+        trust: &Trust,
     ) -> Option<FlowScale> {
-        let straight = believed.gyro
+        let straight = trust.gyro.is_none()
             && frame
                 .gyro
                 .is_some_and(|g| g.rate_mdps.unsigned_abs() < STRAIGHT_MDPS);
         let per_count = i64::from(flow_um_per_count_q16);
         let forward = frame
             .flow
-            .filter(|_| believed.flow)
+            .filter(|_| trust.flow.is_none())
             .map(|f| (i64::from(f.forward_counts) * per_count) >> 16);
         let wall = match (straight, forward, &frame.depth) {
-            (true, Some(_), Some(scan)) if believed.depth => fit_wall(scan, beam_angles),
+            (true, Some(_), Some(scan)) if trust.depth.is_none() => fit_wall(scan, beam_angles),
             _ => None,
         };
         let forward_um = forward.map_or(0, |f| f.clamp(i32::MIN.into(), i32::MAX.into()) as i32);
