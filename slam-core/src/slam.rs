@@ -4,7 +4,7 @@ use crate::angle::Angle;
 use crate::camera_check::{CameraCheck, Picture};
 use crate::estimator::{
     Estimate, Estimator, EstimatorConfig, MapUncertainty, MatchCounters, MatchNoise, TagCounters,
-    TagRefusal,
+    TagRefusal, TagShare,
 };
 use crate::frame::{DepthScan, FlowDelta, GyroRate, SensorFrame, TagDetection, BEAMS};
 use crate::grid::{BeamWriter, Evidence, GridGeometry, GridMap};
@@ -618,18 +618,27 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         let mut leapt = true;
         // The picture's pose before the first taken update and after the latest.
         let mut carried: Option<(Pose, Pose)> = None;
+        // Where the map is matched, the picture's sightings together move the position at
+        // most a tag's step, each its share: a jump there writes the map across it and
+        // sets the matches against the tags, while a filter without matching is best
+        // brought back from the dark at once.
+        let share = self
+            .limits_tag_steps()
+            .then(|| TagShare::of(frame.tags.len()));
         for detection in frame.tags.iter() {
             let mut then = match carried {
                 Some((_, corrected)) => Some(corrected),
                 None => self.history.at(age),
             };
             let tag = self.config.tags.get(detection.id);
-            let mut sighted = self
-                .estimator
-                .sight(detection, tag, &self.config.camera, then);
+            let mut sighted =
+                self.estimator
+                    .sight(detection, tag, &self.config.camera, then, share);
             if age != frame.tags_age_us && carried.is_none() && sighted == Err(TagRefusal::Gate) {
                 let tag = tag.copied();
-                if let Some(own) = self.sight_at_own_moment(detection, tag, frame.tags_age_us) {
+                if let Some(own) =
+                    self.sight_at_own_moment(detection, tag, frame.tags_age_us, share)
+                {
                     (then, sighted) = own;
                 }
             }
@@ -699,6 +708,16 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         outcome
     }
 
+    /// Whether a picture's tags may move the position at most
+    /// [`crate::estimator::TAG_STEP_UM`]: where the map is matched.
+    #[inline(always)]
+    fn limits_tag_steps(&self) -> bool {
+        #[cfg(feature = "matching")]
+        return self.config.matching.is_some();
+        #[cfg(not(feature = "matching"))]
+        return false;
+    }
+
     /// A sighting refused at the moment a camera behind would have taken it, tried at
     /// the moment its picture gives, `age_us` ago: taken there, the camera has caught up.
     /// Returns the moment's pose and the outcome if it was taken. Out of line and cold,
@@ -710,11 +729,12 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         detection: &TagDetection,
         tag: Option<KnownTag>,
         age_us: u32,
+        share: Option<&TagShare>,
     ) -> Option<(Option<Pose>, Result<Pose, TagRefusal>)> {
         let own = self.history.at(age_us);
-        let retried = self
-            .estimator
-            .sight(detection, tag.as_ref(), &self.config.camera, own);
+        let retried =
+            self.estimator
+                .sight(detection, tag.as_ref(), &self.config.camera, own, share);
         retried.is_ok().then(|| {
             self.camera.caught_up();
             (own, retried)

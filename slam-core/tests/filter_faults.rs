@@ -453,3 +453,80 @@ fn a_camera_fallen_behind_is_found_out_and_its_pictures_placed_when_taken() {
         );
     }
 }
+
+/// A robot that believes itself 6 cm from where it stands, and knows it is unsure (10 cm
+/// of initial uncertainty), sees both tags: the first picture alone would put it back,
+/// but where the map is matched no picture moves the pose more than `TAG_STEP_UM`
+/// (2 cm); the rest comes over the next pictures, every sighting taken and none refused,
+/// and the filter's bound still holds the truth. Without matching, the first picture
+/// takes it all.
+#[test]
+fn a_robot_far_from_its_belief_is_brought_back_over_several_pictures() {
+    for matching in [Some(slam_core::MatchingConfig::SEED), None] {
+        brought_back(matching);
+    }
+}
+
+fn brought_back(matching: Option<slam_core::MatchingConfig>) {
+    let truth = Pose::from_mm_mdeg(1100, 1000, 0);
+    let believed = Pose {
+        x_um: truth.x_um + 50_000,
+        y_um: truth.y_um - 35_000,
+        ..truth
+    };
+    let config = SlamConfig {
+        localiser: Localiser::Filter,
+        tags: TagMap::new(&[t11(), t12()]).unwrap(),
+        matching,
+        estimator: EstimatorConfig {
+            initial_position_mm: 100,
+            ..world::shipped::seed_robot().config.estimator
+        },
+        ..unchecked(world::shipped::seed_robot().config)
+    };
+    let mut slam: SeedSlam = Slam::new(config, believed).unwrap();
+    let place = |t: KnownTag| (t.x_mm as f64, t.y_mm as f64);
+    let most_mm = f64::from(slam_core::estimator::TAG_STEP_UM) / 1000.0;
+    let mut steps = Vec::new();
+    for tick in 0..30 {
+        let mut frame = still();
+        for tag in [t11(), t12()] {
+            // A picture repeating one before it bit for bit is a camera stuck or late:
+            // a hundredth of a pixel a tick keeps each one new.
+            let mut seen = read(&fpose(&truth), place(tag), tag.id);
+            seen.cx_centipx += tick;
+            frame.tags.push(seen).unwrap();
+        }
+        let before = fpose(slam.pose());
+        slam.step(&frame);
+        let after = fpose(slam.pose());
+        steps.push((after.x - before.x).hypot(after.y - before.y));
+    }
+    let counters = slam.tag_counters();
+    assert_eq!((counters.used, counters.gate), (60, 0), "{counters:?}");
+    if matching.is_some() {
+        // The first pictures held back (the whole way is 61 mm), the rest following.
+        let most = steps.iter().fold(0.0f64, |m, s| m.max(*s));
+        assert!(
+            most <= most_mm + 0.05,
+            "a picture moved the pose {most:.2} mm"
+        );
+        assert!(steps[1] >= most_mm - 0.5, "{steps:.1?}");
+    } else {
+        assert!(steps[0] >= 55.0, "{steps:.1?}");
+    }
+    let (p, t) = (fpose(slam.pose()), fpose(&truth));
+    let left = (p.x - t.x).hypot(p.y - t.y);
+    assert!(left <= 3.0, "{left:.1} mm from the truth after 30 pictures");
+    let bound = slam.estimate().unwrap().covariance;
+    let sigma_mm =
+        ((bound.xx + bound.yy) as f64).sqrt() / slam_core::estimator::POSITION_UNITS_PER_MM as f64;
+    assert!(
+        left <= 3.0 * sigma_mm.max(1.0),
+        "{left:.1} mm against sd {sigma_mm:.1}"
+    );
+    println!(
+        "matching {}: steps {steps:.1?}; {left:.2} mm off at the end, sd {sigma_mm:.2} mm",
+        matching.is_some()
+    );
+}

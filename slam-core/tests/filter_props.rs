@@ -320,7 +320,7 @@ proptest! {
         prop_assume!(chi2.is_ok());
         let chi2 = chi2.unwrap_or_default();
         let want = rf::sight(&mut p, &EXACT, &then, place, &reading);
-        let got = estimator.sight(&detection, Some(&tag), &CameraConfig::SEED, Some(c.then));
+        let got = estimator.sight(&detection, Some(&tag), &CameraConfig::SEED, Some(c.then), None);
         match (got, want) {
             (Ok(pose), Ok(update)) => {
                 let d = update.correction;

@@ -124,6 +124,18 @@ impl Covariance {
         i64::from(self.m[i as usize][j as usize])
     }
 
+    /// This matrix, an update of `before`, kept only `share` (Q16, within 1.0) of the way
+    /// from `before`: `before + share (self - before)`, entry by entry. Between two
+    /// positive definite matrices, so positive definite itself, and symmetric.
+    pub fn move_from(&mut self, before: &Covariance, share: i64) {
+        for (row, was) in self.m.iter_mut().zip(&before.m) {
+            for (m, &w) in row.iter_mut().zip(was) {
+                let moved = mul_shift(i64::from(*m) - i64::from(w), share, 16);
+                *m = clamp32(i64::from(w) + moved);
+            }
+        }
+    }
+
     /// The whole matrix, rows in state order.
     pub fn rows(&self) -> &[[i32; N]; N] {
         &self.m
@@ -798,6 +810,33 @@ mod tests {
             assert_eq!(fast, wide, "case {n}");
         }
         assert!(narrow_taken > 5_000, "{narrow_taken}");
+    }
+
+    /// A share of the way from one matrix to another: none of it is the first, all of
+    /// it the second, a share between is each entry that far along, and symmetric.
+    #[test]
+    fn move_from_goes_the_share_of_the_way() {
+        let mut rng = Lcg::new(17);
+        for _ in 0..2_000 {
+            let (before, _, _) = case(&mut rng, 30);
+            let (after, _, _) = case(&mut rng, 30);
+            let share = rng.within(1 << 16).abs();
+            for (s, want) in [(0, before), (1 << 16, after)] {
+                let mut moved = after;
+                moved.move_from(&before, s);
+                assert_eq!(moved, want);
+            }
+            let mut moved = after;
+            moved.move_from(&before, share);
+            for i in 0..N {
+                for j in 0..N {
+                    let (b, a) = (f64::from(before.m[i][j]), f64::from(after.m[i][j]));
+                    let want = b + (a - b) * share as f64 / 65_536.0;
+                    assert!((f64::from(moved.m[i][j]) - want).abs() <= 0.5 + 1e-9);
+                    assert_eq!(moved.m[i][j], moved.m[j][i]);
+                }
+            }
+        }
     }
 
     #[test]

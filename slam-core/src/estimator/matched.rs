@@ -16,6 +16,7 @@
 use super::covariance::{GAIN_SHIFT, N};
 use super::filter::Estimator;
 use super::fixed::{fits_i32, mul_shift_call as mul_shift, square, Reciprocal};
+use super::step_limit::steps_further;
 use super::units::{self, FINE_SHIFT};
 use super::State;
 use crate::matcher::{Match, MatchRefusal, Pins};
@@ -393,16 +394,6 @@ const WIDEN_SHIFT: u32 = 2;
 /// The most a match's covariance is widened, in bits: deviations 64 times the surface's.
 /// One that still steps too far is refused as beyond the gate.
 const MOST_WIDENED: u32 = 12;
-
-/// Whether the correction `fine` moves the position further than `step_um`.
-fn steps_further(fine: &[i64; N], step_um: u32) -> bool {
-    let dx = units::um_from_fine_position(fine[State::X as usize]);
-    let dy = units::um_from_fine_position(fine[State::Y as usize]);
-    let most = u64::from(step_um);
-    // Each within 2^31 um (2 km) before squaring: the sum fits 64 bits unsigned.
-    let square = |d: i64| d.unsigned_abs().min(1 << 31).pow(2);
-    square(dx) + square(dy) > most * most
-}
 
 /// The noise to give `m` so that the filter's variance along it, `prior` before, is
 /// left at least `m.floor` after: `r` with `prior r / (prior + r) >= floor`. `None` when

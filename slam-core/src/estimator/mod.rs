@@ -27,11 +27,13 @@ mod filter;
 pub mod fixed;
 mod matched;
 mod sighting;
+mod step_limit;
 pub mod units;
 
 pub use config::EstimatorConfig;
 pub use filter::Estimator;
 pub use matched::{MapUncertainty, MatchCounters, MatchNoise, MATCH_STEP_UM};
+pub use step_limit::{TagShare, TAG_STEP_UM};
 
 /// The filter's states, in the covariance's order.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]

@@ -3,6 +3,7 @@
 use super::covariance::{GAIN_SHIFT, N};
 use super::filter::Estimator;
 use super::fixed::{fits_i32, mul_q16_unit, mul_shift, mul_shift_each, square, Reciprocal};
+use super::step_limit::{share_of_move, TagShare};
 use super::units::{self, FINE_SHIFT};
 use super::{State, TagRefusal};
 use crate::angle::{sin_cos_of_vector, Angle, TRIG_ONE};
@@ -76,7 +77,42 @@ fn bearing_of(a: &[i64; N], h_across: &[(State, i32); 2], per_range: &Reciprocal
 /// in Q16.
 const IN_TURN_ABOVE: i64 = 1 << 17;
 
+/// Why [`Estimator::sight_fine`] took nothing.
+enum NotTaken {
+    /// The detection was refused.
+    Refused(TagRefusal),
+    /// It passed the gate, but its correction might move the position further than
+    /// the share's step.
+    MayStepFurther,
+}
+
+impl From<TagRefusal> for NotTaken {
+    fn from(refusal: TagRefusal) -> NotTaken {
+        NotTaken::Refused(refusal)
+    }
+}
+
 impl Estimator {
+    /// Whether a sighting of normalised innovation `chi2` (Q8) surely moves the position
+    /// no further than `share`'s step: its correction `d` has `d' P^-1 d <= chi2`, so
+    /// the position's part is at most `sqrt(chi2 l)` for `l` the largest variance of the
+    /// position in any direction, at most the larger variance plus the covariance.
+    /// In 32 bits: a variance past 2^20 (6.4 cm) or a chi-square past 16 is not surely
+    /// within any share, and below both the product fits.
+    #[inline(always)]
+    fn surely_within(&self, chi2: i64, share: &TagShare) -> bool {
+        let rows = self.p.rows();
+        let (xx, yy, xy) = (
+            rows[0][0] as u32,
+            rows[1][1] as u32,
+            rows[0][1].unsigned_abs(),
+        );
+        let widest = xx.max(yy).saturating_add(xy);
+        widest < 1 << 20
+            && (0..1 << 12).contains(&chi2)
+            && widest * chi2 as u32 <= share.surely_within_q8
+    }
+
     /// The range's update and then the bearing's, each from the covariance the one
     /// before left and each to within a unit
     /// ([`super::covariance::Covariance::update_precise`]): for a
@@ -127,8 +163,9 @@ impl Estimator {
 
     /// Updates the filter from one detection of `tag` (`None`: an id not in the map),
     /// seen from `then`, the pose believed when the picture was taken (`None`: older
-    /// than the history). Returns the corrected pose of that moment, or why the
-    /// detection was refused; refusals are counted by cause.
+    /// than the history), moving the position at most `share`'s step (`None`: as far as
+    /// the update says). Returns the corrected pose of that moment, or why the detection
+    /// was refused; refusals are counted by cause.
     ///
     /// Inlined where it is called: the step calls it once a sighting, and a second
     /// call site (a late camera's retry) would otherwise leave it out of line.
@@ -139,8 +176,69 @@ impl Estimator {
         tag: Option<&KnownTag>,
         camera: &CameraConfig,
         then: Option<Pose>,
+        share: Option<&TagShare>,
     ) -> Result<Pose, TagRefusal> {
-        let outcome = self.try_sight(detection, tag, camera, then);
+        let outcome = match self.try_sight(detection, tag, camera, then, share) {
+            Ok(pose) => Ok(pose),
+            Err(NotTaken::Refused(refusal)) => Err(refusal),
+            Err(NotTaken::MayStepFurther) => {
+                let step_um = share.map_or(u32::MAX, |share| share.step_um);
+                self.sight_within(detection, tag, camera, then, step_um)
+            }
+        };
+        self.count(outcome)
+    }
+
+    /// [`Estimator::sight`] for a sighting whose correction may be longer than `step_um`:
+    /// taken, and if it moved the position further than that, taken back in part. A
+    /// share `g` of the Kalman correction (of the pose and the calibration), with the
+    /// covariance the Joseph form gives that gain, `P - g (2 - g) K S K'`, which is `P`
+    /// moved the share `g (2 - g)` of the way to the full update's: the filter stays as
+    /// unsure as the part it took leaves it, and the next pictures bring the rest.
+    #[cold]
+    #[inline(never)]
+    fn sight_within(
+        &mut self,
+        detection: &TagDetection,
+        tag: Option<&KnownTag>,
+        camera: &CameraConfig,
+        then: Option<Pose>,
+        step_um: u32,
+    ) -> Result<Pose, TagRefusal> {
+        let (p, calibration) = (self.p, self.calibration);
+        let full = match self.try_sight(detection, tag, camera, then, None) {
+            Ok(full) => full,
+            Err(NotTaken::Refused(refusal)) => return Err(refusal),
+            // Not asked for.
+            Err(NotTaken::MayStepFurther) => return Err(TagRefusal::Gate),
+        };
+        let Some(then) = then else {
+            return Ok(full);
+        };
+        let moved = (
+            i64::from(full.x_um) - i64::from(then.x_um),
+            i64::from(full.y_um) - i64::from(then.y_um),
+        );
+        let Some(share) = share_of_move(moved, step_um) else {
+            return Ok(full);
+        };
+        let kept = (share * ((2 << 16) - share)) >> 16;
+        self.p.move_from(&p, kept);
+        for (now, was) in self.calibration.iter_mut().zip(calibration) {
+            *now = was + mul_shift(*now - was, share, 16);
+        }
+        let part = |d: i64| mul_shift(d, share, 16) as i32;
+        let turned = i64::from((full.heading - then.heading).signed_bits());
+        Ok(Pose {
+            x_um: then.x_um.saturating_add(part(moved.0)),
+            y_um: then.y_um.saturating_add(part(moved.1)),
+            heading: then.heading + Angle::from_bits(part(turned) as u32),
+        })
+    }
+
+    /// Counts a sighting's outcome by cause, and passes it on.
+    #[inline(always)]
+    fn count(&mut self, outcome: Result<Pose, TagRefusal>) -> Result<Pose, TagRefusal> {
         let c = &mut self.counters;
         let counter = match outcome {
             Ok(_) => &mut c.used,
@@ -161,12 +259,31 @@ impl Estimator {
         tag: Option<&KnownTag>,
         camera: &CameraConfig,
         then: Option<Pose>,
-    ) -> Result<Pose, TagRefusal> {
+        share: Option<&TagShare>,
+    ) -> Result<Pose, NotTaken> {
+        let (then, fine) = self.sight_fine(detection, tag, camera, then, share)?;
+        Ok(self.corrected(&then, fine))
+    }
+
+    /// The sighting's update: the filter updated, and the pose `then` it was seen from
+    /// with the state's correction in fine units (not yet applied to the pose and the
+    /// calibration). With a `share`, a sighting that passed the gate but whose
+    /// correction might move the position further than the share's step changes
+    /// nothing and says so.
+    #[inline(always)]
+    fn sight_fine(
+        &mut self,
+        detection: &TagDetection,
+        tag: Option<&KnownTag>,
+        camera: &CameraConfig,
+        then: Option<Pose>,
+        share: Option<&TagShare>,
+    ) -> Result<(Pose, [i64; N]), NotTaken> {
         self.refused_at_its_range = false;
         let cfg = self.config;
         let tag = tag.ok_or(TagRefusal::UnknownId)?;
         if detection.distance_mm > cfg.max_range_mm {
-            return Err(TagRefusal::TooFar);
+            return Err(TagRefusal::TooFar.into());
         }
         let then = then.ok_or(TagRefusal::TooOld)?;
 
@@ -190,7 +307,7 @@ impl Estimator {
         let sin_b = unit(mul_q16_32(sin, cos_h) - mul_q16_32(cos, sin_h));
         let cos_b = unit(mul_q16_32(cos, cos_h) + mul_q16_32(sin, sin_h));
         if cfg.half_view_mdeg < 180_000 && cos_b < self.view_cos {
-            return Err(TagRefusal::Behind);
+            return Err(TagRefusal::Behind.into());
         }
 
         // Innovations: range in position units, bearing in heading units. The bearing's
@@ -203,14 +320,14 @@ impl Estimator {
         let off_centre = i64::from(detection.cx_centipx) - i64::from(camera.centre_centipx);
         if off_centre.unsigned_abs() > 2 * u64::from(camera.centre_centipx.unsigned_abs()) {
             self.refused_by = (i32::MAX, i32::MAX);
-            return Err(TagRefusal::Gate);
+            return Err(TagRefusal::Gate.into());
         }
         let (sin_m, cos_m) = camera.ray(detection.cx_centipx);
         let sin_nu = i64::from(mul_q16_32(sin_m, cos_b) - mul_q16_32(cos_m, sin_b));
         let cos_nu = mul_q16_32(cos_m, cos_b) + mul_q16_32(sin_m, sin_b);
         if cos_nu <= 0 {
             self.refused_by = (i32::MAX, clamp(nu_range));
-            return Err(TagRefusal::Gate);
+            return Err(TagRefusal::Gate.into());
         }
         let nu_bearing = if sin_nu.abs() < ASIN_SERIES_BELOW {
             i64::from(asin_small(sin_nu as i32))
@@ -257,7 +374,7 @@ impl Estimator {
         let s_cross = range_of(&a_bearing);
         let s_bearing = bearing_of(&a_bearing, &h_across, &per_range).saturating_add(r_bearing);
         let Some(inv_range) = Reciprocal::of(s_range) else {
-            return Err(TagRefusal::Gate);
+            return Err(TagRefusal::Gate.into());
         };
         // The bearing given the range: what is left of it once the range is known.
         let c = inv_range.times(s_cross, 16);
@@ -268,14 +385,19 @@ impl Estimator {
             *a = a.saturating_sub(r);
         }
         let Some(inv_bearing) = Reciprocal::of(s_bearing) else {
-            return Err(TagRefusal::Gate);
+            return Err(TagRefusal::Gate.into());
         };
         let range_chi2 = normalised_square_q8(nu_range, &inv_range);
         let chi2 = range_chi2.saturating_add(normalised_square_q8(nu_bearing, &inv_bearing));
         if chi2 > i64::from(cfg.gate_chi2_q8) && !self.ungated {
             self.refused_at_its_range = range_chi2 <= RANGE_AGREES_CHI2_Q8;
             self.refused_by = (clamp(nu_bearing), clamp(nu_range));
-            return Err(TagRefusal::Gate);
+            return Err(TagRefusal::Gate.into());
+        }
+        if let Some(share) = share {
+            if !self.surely_within(chi2, share) {
+                return Err(NotTaken::MayStepFurther);
+            }
         }
         self.ungated = false;
 
@@ -290,7 +412,7 @@ impl Estimator {
         for (f, b) in fine.iter_mut().zip(by_bearing) {
             *f = f.saturating_add(b);
         }
-        Ok(self.corrected(&then, fine))
+        Ok((then, fine))
     }
 }
 
