@@ -190,6 +190,9 @@ pub struct Figures {
     pub final_error_cm: f64,
     /// Largest position error from the first fix on, centimetres (0 without a fix).
     pub max_error_after_first_fix_cm: f64,
+    /// Largest position error from a second after the first fix on, centimetres (0
+    /// without a fix).
+    pub max_error_1s_after_first_fix_cm: f64,
     /// Heading error at the end, degrees (absolute).
     pub final_heading_error_deg: f64,
     /// Largest heading error from the first fix on, degrees (absolute; 0 without a fix).
@@ -626,11 +629,12 @@ fn run_sized<const W: usize, const H: usize>(
         first_fix_s: first_fix.map(|i| i as f64 * TICK_S),
         final_error_cm: errors.final_error_cm,
         max_error_after_first_fix_cm: errors.max_error_after_first_fix_cm,
+        max_error_1s_after_first_fix_cm: errors.max_error_1s_after_first_fix_cm,
         final_heading_error_deg: errors.final_heading_error_deg,
         max_heading_error_after_first_fix_deg: errors.max_heading_error_after_first_fix_deg,
         max_error_cm: errors.max_error_cm,
         max_heading_error_deg: errors.max_heading_error_deg,
-        max_jump_cm: max_jump_cm(&ticks),
+        max_jump_cm: errors.max_jump_cm,
         collisions: robot.collisions(),
         guard_stops,
         held_ticks,
@@ -654,23 +658,6 @@ fn run_sized<const W: usize, const H: usize>(
 
 fn is_zero(n: &u32) -> bool {
     *n == 0
-}
-
-/// The largest tick-to-tick change of the error vector (estimate minus truth), cm.
-fn max_jump_cm(ticks: &[TickRecord]) -> f64 {
-    let error = |t: &TickRecord| {
-        (
-            t.estimate_mm.0 - t.truth_mm.0,
-            t.estimate_mm.1 - t.truth_mm.1,
-        )
-    };
-    ticks
-        .windows(2)
-        .map(|w| {
-            let (a, b) = (error(&w[0]), error(&w[1]));
-            (b.0 - a.0).hypot(b.1 - a.1) / 10.0
-        })
-        .fold(0.0, f64::max)
 }
 
 /// The beliefs of `map`, row-major from the lowest row.

@@ -592,13 +592,15 @@ pub struct TruthFigures {
 }
 
 /// The keys of [`PoseErrors`], for [`errors_or_nulls`].
-const POSE_ERROR_KEYS: [&str; 6] = [
+const POSE_ERROR_KEYS: [&str; 8] = [
     "final_error_cm",
     "max_error_after_first_fix_cm",
+    "max_error_1s_after_first_fix_cm",
     "final_heading_error_deg",
     "max_heading_error_after_first_fix_deg",
     "max_error_cm",
     "max_heading_error_deg",
+    "max_jump_cm",
 ];
 
 /// The errors' keys with their values, or each with `null`: a reader finds the key

@@ -23,7 +23,7 @@ pub fn host_sim(args: &[&str]) -> Output {
 
 /// The figures `host-sim run --json` reports that `host-sim view --truth --scenario --json`
 /// reports too, under the same names (`run` adds `ticks` and the rest).
-pub const SCORED_FIGURES: [&str; 12] = [
+pub const SCORED_FIGURES: [&str; 14] = [
     "known_pct",
     "free",
     "occupied",
@@ -32,10 +32,12 @@ pub const SCORED_FIGURES: [&str; 12] = [
     "first_fix_s",
     "final_error_cm",
     "max_error_after_first_fix_cm",
+    "max_error_1s_after_first_fix_cm",
     "final_heading_error_deg",
     "max_heading_error_after_first_fix_deg",
     "max_error_cm",
     "max_heading_error_deg",
+    "max_jump_cm",
 ];
 
 /// A `Hello` for a `width` x `height` grid of 5 cm cells at the origin, with the seed's

@@ -441,15 +441,19 @@ const ROOM_SECONDS_F: f64 = 96.0;
 
 /// The firmware built for [`ROOM`] flying its route on the emulated RP2040, against
 /// `host-sim run ROOM` on the same seed with the pose mode the firmware flies:
-/// [`world_checks`], and the final error and the error after the first fix within 2 cm,
-/// the bounds [`route_run`] holds the seed to. Prints each check; returns (passed,
-/// failed).
+/// [`world_checks`]; the final error within 2 cm, the bound [`route_run`] holds the seed
+/// to; the error from a second after the first fix within 2 cm; and no tick moving the
+/// estimate more than 3 cm beyond the robot's own motion (issue 11's bound). The room's
+/// first tag comes after 22 s in the dark, and where the map is matched the filter takes
+/// a correction from that far a tag's step a picture, so the seed's "error after the first
+/// fix" is judged once those pictures are in. Prints each check; returns (passed, failed).
 pub fn room_run() -> Result<(u64, u64), String> {
     let f = crate::emulator_figures(&[ROOM, "--seconds", ROOM_SECONDS, "--seed", ROUTE_SEED])?;
     let (pose, _) = flown(&f)?;
     let sim = host_sim_run(ROOM, pose)?;
     let v = &f["view"];
     let num = |x: &serde_json::Value| x.as_f64().unwrap_or(f64::NAN);
+    let both = |key: &str, bound: f64| num(&v[key]) <= bound && num(&sim[key]) <= bound;
     let mut checks = world_checks(&f, &sim, ROOM_SECONDS_F);
     checks.extend([
         (
@@ -458,15 +462,23 @@ pub fn room_run() -> Result<(u64, u64), String> {
                 num(&v["final_error_cm"]),
                 num(&sim["final_error_cm"])
             ),
-            num(&v["final_error_cm"]) <= 2.0 && num(&sim["final_error_cm"]) <= 2.0,
+            both("final_error_cm", 2.0),
         ),
         (
             format!(
-                "error after the first fix <= 2 cm: emulator {:.2} cm, host-sim {:.2} cm",
-                num(&v["max_error_after_first_fix_cm"]),
-                num(&sim["max_error_after_first_fix_cm"])
+                "error from 1 s after the first fix <= 2 cm: emulator {:.2} cm, host-sim {:.2} cm",
+                num(&v["max_error_1s_after_first_fix_cm"]),
+                num(&sim["max_error_1s_after_first_fix_cm"])
             ),
-            num(&v["max_error_after_first_fix_cm"]) <= 2.0,
+            both("max_error_1s_after_first_fix_cm", 2.0),
+        ),
+        (
+            format!(
+                "largest one-tick jump <= 3 cm: emulator {:.2} cm, host-sim {:.2} cm",
+                num(&v["max_jump_cm"]),
+                num(&sim["max_jump_cm"])
+            ),
+            both("max_jump_cm", 3.0),
         ),
     ]);
     Ok(print_checks("emulator room", &checks))
