@@ -539,14 +539,14 @@ fn print_summary(name: &str, mode: PoseMode, seed: u64, f: &Figures) {
     match f.first_fix_s {
         Some(t) => say!(
             "fixes taken {} (first at {t:.1} s, {} rejected); after the first fix: error <= {:.1} cm, heading <= {:.1} deg",
-            f.fixes, f.fixes_rejected, f.max_error_after_first_fix_cm, f.max_heading_error_after_first_fix_deg
+            f.fixes, f.fixes_rejected, f.errors.max_error_after_first_fix_cm, f.errors.max_heading_error_after_first_fix_deg
         ),
         None => say!("fixes taken 0"),
     }
     say!(
         "final pose error {:.1} cm, heading error {:.1} deg",
-        f.final_error_cm,
-        f.final_heading_error_deg
+        f.errors.final_error_cm,
+        f.errors.final_heading_error_deg
     );
     if let Some(e) = &f.estimator {
         say!("{}", estimator_line(e));

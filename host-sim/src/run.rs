@@ -9,7 +9,7 @@ use crate::record::{
 use crate::robot::{Command, Robot, TruePose};
 use crate::route::Route;
 use crate::scenario::Scenario;
-use crate::score::{map_counts, out_of_place_mask, pose_errors, real_mask, MapCounts};
+use crate::score::{map_counts, out_of_place_mask, pose_errors, real_mask, MapCounts, PoseErrors};
 use crate::telemetry::TelemetryWriter;
 use serde::Serialize;
 use slam_core::depth_step::{DepthSteps, ZoneTurn};
@@ -186,25 +186,10 @@ pub struct Figures {
     pub fixes_rejected: u32,
     /// Time of the first fix, seconds; `None` if there was none.
     pub first_fix_s: Option<f64>,
-    /// Position error at the end, centimetres.
-    pub final_error_cm: f64,
-    /// Largest position error from the first fix on, centimetres (0 without a fix).
-    pub max_error_after_first_fix_cm: f64,
-    /// Largest position error from a second after the first fix on, centimetres (0
-    /// without a fix).
-    pub max_error_1s_after_first_fix_cm: f64,
-    /// Heading error at the end, degrees (absolute).
-    pub final_heading_error_deg: f64,
-    /// Largest heading error from the first fix on, degrees (absolute; 0 without a fix).
-    pub max_heading_error_after_first_fix_deg: f64,
-    /// Largest position error over the whole run, centimetres.
-    pub max_error_cm: f64,
-    /// Largest heading error over the whole run, degrees (absolute, wrapped to 180).
-    pub max_heading_error_deg: f64,
-    /// Largest change of the position error from one tick to the next, centimetres: how
-    /// far a single tick's correction moved the estimate beyond the robot's own motion
-    /// (issue 11 asks for at most 3 cm on every shipped scenario).
-    pub max_jump_cm: f64,
+    /// The pose's errors against the truth, scored as `host-sim view` scores a
+    /// robot's run (flattened: each under its own name).
+    #[serde(flatten)]
+    pub errors: PoseErrors,
     /// Times the robot's body ran into a wall or a box and stopped there, one per contact
     /// (however many ticks it pushed on).
     pub collisions: u32,
@@ -627,14 +612,7 @@ fn run_sized<const W: usize, const H: usize>(
             + counters.fixes_rejected_geometry
             + counters.fixes_rejected_too_old,
         first_fix_s: first_fix.map(|i| i as f64 * TICK_S),
-        final_error_cm: errors.final_error_cm,
-        max_error_after_first_fix_cm: errors.max_error_after_first_fix_cm,
-        max_error_1s_after_first_fix_cm: errors.max_error_1s_after_first_fix_cm,
-        final_heading_error_deg: errors.final_heading_error_deg,
-        max_heading_error_after_first_fix_deg: errors.max_heading_error_after_first_fix_deg,
-        max_error_cm: errors.max_error_cm,
-        max_heading_error_deg: errors.max_heading_error_deg,
-        max_jump_cm: errors.max_jump_cm,
+        errors,
         collisions: robot.collisions(),
         guard_stops,
         held_ticks,

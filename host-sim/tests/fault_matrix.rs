@@ -171,10 +171,11 @@ fn a_gyro_bias_jump_hidden_from_the_check_is_recovered_from_by_the_tags() {
         assert_eq!(f.held_ticks, 0, "seed {seed}");
         assert!(f.fixes_rejected > b.fixes_rejected, "seed {seed}");
         assert!(
-            f.final_error_cm <= b.final_error_cm + host_sim::fault_matrix::RECOVERED_CM,
+            f.errors.final_error_cm
+                <= b.errors.final_error_cm + host_sim::fault_matrix::RECOVERED_CM,
             "seed {seed}: {} cm, {} cm unfaulted",
-            f.final_error_cm,
-            b.final_error_cm
+            f.errors.final_error_cm,
+            b.errors.final_error_cm
         );
     }
 }

@@ -256,11 +256,14 @@ fn the_rough_mat_is_the_seed_mat_with_the_failings() {
     // The failings change what the robot reads (the sensor's swing in each turn is taken
     // off by the core, which is told where the sensor sits; slip and the wandering bias
     // are not).
-    assert_ne!(dr.max_error_cm, seed_dr.max_error_cm, "{dr:?}");
+    assert_ne!(
+        dr.errors.max_error_cm, seed_dr.errors.max_error_cm,
+        "{dr:?}"
+    );
     // The filter holds the rough mat to the 2 cm and 1.5 degrees.
     let slam = figures(&rough, PoseMode::Slam);
-    assert!(slam.max_error_cm <= 2.0, "{slam:?}");
-    assert!(slam.max_heading_error_deg <= 1.5, "{slam:?}");
+    assert!(slam.errors.max_error_cm <= 2.0, "{slam:?}");
+    assert!(slam.errors.max_heading_error_deg <= 1.5, "{slam:?}");
     assert_eq!(slam.out_of_place, 0, "{slam:?}");
 }
 
@@ -353,5 +356,5 @@ fn the_largest_heading_error_covers_the_whole_run() {
     assert!(max > 2.0 && max < 20.0, "{v}");
     // With the true pose there is none to speak of.
     let truth = figures(&load("seed-mat.toml"), PoseMode::Truth);
-    assert!(truth.max_heading_error_deg < 1e-3, "{truth:?}");
+    assert!(truth.errors.max_heading_error_deg < 1e-3, "{truth:?}");
 }

@@ -78,10 +78,11 @@ fn hidden_age_is_measurably_worse() {
         assert!(hidden.frames.iter().all(|fr| fr.tags_age_us == 0));
         let (r, h) = (&reported.figures, &hidden.figures);
         assert!(
-            h.max_heading_error_after_first_fix_deg > r.max_heading_error_after_first_fix_deg,
+            h.errors.max_heading_error_after_first_fix_deg
+                > r.errors.max_heading_error_after_first_fix_deg,
             "seed {seed}: hidden {} deg, reported {} deg",
-            h.max_heading_error_after_first_fix_deg,
-            r.max_heading_error_after_first_fix_deg
+            h.errors.max_heading_error_after_first_fix_deg,
+            r.errors.max_heading_error_after_first_fix_deg
         );
         mean_reported += mean_error_after_first_fix_cm(&reported);
         mean_hidden += mean_error_after_first_fix_cm(&hidden);

@@ -14,8 +14,11 @@ fn check_truth(seed: u64) {
     let f = run_seed(PoseMode::Truth, seed).figures;
     // The pose is the truth, rounded to the core's micrometres and 2^-32 turns: zero to
     // within 10 um and 1e-6 degrees.
-    assert!(f.max_error_cm < 1e-3, "seed {seed}: {f:?}");
-    assert!(f.final_heading_error_deg < 1e-6, "seed {seed}: {f:?}");
+    assert!(f.errors.max_error_cm < 1e-3, "seed {seed}: {f:?}");
+    assert!(
+        f.errors.final_heading_error_deg < 1e-6,
+        "seed {seed}: {f:?}"
+    );
     assert_eq!(f.out_of_place, 0, "seed {seed}: {f:?}");
     assert!(
         f.known_grid_pct >= 78.0,
@@ -44,14 +47,14 @@ fn check_truth(seed: u64) {
 fn check_dead_reckoning(seed: u64) {
     let f = run_seed(PoseMode::DeadReckoning, seed).figures;
     assert!(
-        (5.0..=15.0).contains(&f.final_error_cm),
+        (5.0..=15.0).contains(&f.errors.final_error_cm),
         "seed {seed}: final error {} cm",
-        f.final_error_cm
+        f.errors.final_error_cm
     );
     assert!(
-        (5.0..=13.0).contains(&f.final_heading_error_deg),
+        (5.0..=13.0).contains(&f.errors.final_heading_error_deg),
         "seed {seed}: final heading error {} deg",
-        f.final_heading_error_deg
+        f.errors.final_heading_error_deg
     );
     assert!(
         f.out_of_place > 0,
@@ -118,7 +121,7 @@ fn tags_over_20_seeds() {
         );
         // And the fix is what makes the difference.
         assert!(
-            dr.figures.final_error_cm > 3.0 * f.final_error_cm.max(1.0),
+            dr.figures.errors.final_error_cm > 3.0 * f.errors.final_error_cm.max(1.0),
             "seed {seed}"
         );
     }

@@ -36,14 +36,14 @@ pub fn assert_tag_bounds(seed: u64, f: &Figures) {
         f.fixes
     );
     assert!(
-        f.max_error_after_first_fix_cm <= 2.0,
+        f.errors.max_error_after_first_fix_cm <= 2.0,
         "seed {seed}: {} cm after first fix",
-        f.max_error_after_first_fix_cm
+        f.errors.max_error_after_first_fix_cm
     );
     assert!(
-        f.max_heading_error_after_first_fix_deg <= 3.5,
+        f.errors.max_heading_error_after_first_fix_deg <= 3.5,
         "seed {seed}: {} deg after first fix",
-        f.max_heading_error_after_first_fix_deg
+        f.errors.max_heading_error_after_first_fix_deg
     );
 }
 
