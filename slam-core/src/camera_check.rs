@@ -17,7 +17,11 @@
 //! from a few ticks before, with others between, says the camera has fallen behind: it
 //! is refused too, and the pictures after it are taken as that many ticks older than they
 //! say ([`CameraCheck::lag_ticks`]), until a sighting the gate refuses at that moment is
-//! taken at the moment the picture gave (the camera has caught up).
+//! taken at the moment the picture gave (the camera has caught up). A camera that fell
+//! behind while no tag was in view repeats no picture: the core guesses its lag when a
+//! run of refused pictures would have it forget the heading and the pictures fit a moment
+//! a few ticks older instead ([`CameraCheck::behind`]), and drops the guess when a
+//! sighting fits neither moment ([`CameraCheck::fits_no_moment`]).
 
 use crate::estimator::units;
 use crate::frame::TagDetections;
@@ -69,6 +73,9 @@ pub struct CameraCheck {
     newest: u8,
     /// How many ticks behind the camera has fallen, if it has.
     lag: Option<u32>,
+    /// Whether the lag is the filter's guess ([`CameraCheck::behind`]) rather than a
+    /// repeated picture's evidence.
+    guessed: bool,
     /// The tick the filter last took a sighting on.
     last_taken_tick: u32,
     /// The run of refused pictures since the last sighting taken.
@@ -119,6 +126,7 @@ impl CameraCheck {
             ticks: [0; REMEMBERED],
             newest: 0,
             lag: None,
+            guessed: false,
             last_taken_tick: 0,
             run: Run::None,
         }
@@ -140,6 +148,7 @@ impl CameraCheck {
             if *seen == print {
                 let ticks = tick.wrapping_sub(then);
                 self.lag = Some(ticks);
+                self.guessed = false;
                 return Picture::Late { ticks };
             }
         }
@@ -156,10 +165,31 @@ impl CameraCheck {
         self.lag
     }
 
+    /// The camera is `ticks` behind, as the filter found ([`crate::Slam`]'s test of a
+    /// run of refused pictures), not as a repeated picture showed.
+    pub fn behind(&mut self, ticks: u32) {
+        self.lag = Some(ticks);
+        self.guessed = true;
+        self.run = Run::None;
+    }
+
+    /// A sighting fitted neither the lagged moment nor the picture's own. A guessed lag
+    /// was wrong (a heading gone off in a steady turn looks like a camera behind until
+    /// the turn ends): it is dropped, and the refusals count towards forgetting the
+    /// heading. A lag a repeated picture showed stands.
+    pub fn fits_no_moment(&mut self) {
+        if self.guessed {
+            self.lag = None;
+            self.guessed = false;
+            self.run = Run::Drifted;
+        }
+    }
+
     /// A sighting refused at the lagged moment was taken at the picture's own: the
     /// camera has caught up.
     pub fn caught_up(&mut self) {
         self.lag = None;
+        self.guessed = false;
     }
 
     /// The filter took a sighting on tick `tick`: any run of refusals is over.
@@ -271,6 +301,32 @@ mod tests {
         // 30 mm of range one tick after: more than 20 + 2.
         assert!(c.leaps((0, 30 * 16), 101));
         assert!(!c.leaps((0, 30 * 16), 105));
+    }
+
+    #[test]
+    fn a_guessed_lag_goes_when_no_moment_fits_and_a_seen_one_stays() {
+        let mut c = CameraCheck::new(&LeapLimit::SEED);
+        assert!(!c.refused(true));
+        c.behind(3);
+        assert_eq!(c.lag_ticks(), Some(3));
+        c.fits_no_moment();
+        assert_eq!(c.lag_ticks(), None);
+        // The refusals now count towards forgetting the heading, though the run leapt.
+        assert!(c.refused(true));
+        // A lag a repeated picture showed is evidence, not a guess.
+        for tick in 1..4 {
+            assert_eq!(c.judge(&picture(tick as i32), tick), Picture::New);
+        }
+        assert_eq!(c.judge(&picture(1), 4), Picture::Late { ticks: 3 });
+        c.fits_no_moment();
+        assert_eq!(c.lag_ticks(), Some(3));
+        // Nor does a guess outlive the camera catching up.
+        c.behind(2);
+        c.caught_up();
+        c.behind(1);
+        c.judge(&picture(1), 5);
+        c.fits_no_moment();
+        assert_eq!(c.lag_ticks(), Some(4));
     }
 
     #[test]
