@@ -86,7 +86,7 @@ const OTHER_WINDOWS: [(f64, &str, &[&str]); 4] = [
     (
         28.0,
         "the second turn's end, the tags coming into view, then the drive",
-        &["flow-slow", "camera-wrong"],
+        &["camera-wrong"],
     ),
     (
         40.0,

@@ -299,6 +299,10 @@ pub struct Slam<const W: usize, const H: usize> {
     /// Whether a tag the filter's gate refused since it last took one was refused at a
     /// range its listed place does not have.
     refused_off_range: bool,
+    /// Pictures in a row whose every sighting the gate refused, two or more of them and
+    /// one at least off in range, with the depth sensor seeing the tags where the camera
+    /// does ([`Slam::position_refused`]).
+    witnessed_off_range_in_a_row: u8,
     /// The camera held to itself: pictures given again, sightings that leap.
     camera: CameraCheck,
     estimator: Estimator,
@@ -339,6 +343,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             counters: Counters::default(),
             gate_rejections_in_a_row: 0,
             refused_off_range: false,
+            witnessed_off_range_in_a_row: 0,
             camera: CameraCheck::new(&config.fix.leap),
             estimator: Estimator::new(config.estimator),
             #[cfg(feature = "matching")]
@@ -372,6 +377,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         self.counters = Counters::default();
         self.gate_rejections_in_a_row = 0;
         self.refused_off_range = false;
+        self.witnessed_off_range_in_a_row = 0;
         self.camera = CameraCheck::new(&self.config.fix.leap);
         self.estimator = Estimator::new(self.config.estimator);
         #[cfg(feature = "matching")]
@@ -470,12 +476,17 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         self.counters.gyro_stale += stale.gyro as u32;
         self.counters.depth_stale += stale.depth as u32;
 
+        // What the picture's tags say of the depth scan, where the checks ask.
+        let mut witness = Witness::Silent;
         let judged = match &self.config.plausible {
             Some(limits) => {
-                let depth = frame.depth.as_ref().map(|scan| DepthReading {
-                    scan,
-                    steps: frame.depth_doubt,
-                    tags: self.tags_on_depth(frame, limits),
+                let depth = frame.depth.as_ref().map(|scan| {
+                    witness = self.tags_on_depth(frame, limits);
+                    DepthReading {
+                        scan,
+                        steps: frame.depth_doubt,
+                        tags: witness,
+                    }
                 });
                 self.plausibility
                     .judge(frame.gyro, frame.flow, depth, frame.commanded, limits)
@@ -495,7 +506,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             }
             None if self.config.localiser == Localiser::Filter => {
                 self.predict_filtered(frame.dt_us, judged.flow, judged.gyro);
-                self.filter_tags(frame)
+                self.filter_tags(frame, witness)
             }
             None => {
                 let motion = odometry::motion(
@@ -585,8 +596,10 @@ impl<const W: usize, const H: usize> Slam<W, H> {
     /// remembered poses and the pose now once, as a fix does (one motion from the
     /// picture's pose before the first to after the last: the same as carrying each in
     /// turn, but for rounding, for half the work with two tags in view).
-    fn filter_tags(&mut self, frame: &SensorFrame) -> FixOutcome {
+    fn filter_tags(&mut self, frame: &SensorFrame, witness: Witness) -> FixOutcome {
         let mut outcome = FixOutcome::NotAttempted;
+        // Sightings the gate refused, and whether any was off in range.
+        let (mut refused, mut off_range) = (0u8, false);
         match self.camera.judge(&frame.tags, self.counters.ticks) {
             Picture::New => {}
             Picture::Repeated => {
@@ -650,7 +663,10 @@ impl<const W: usize, const H: usize> Slam<W, H> {
                     outcome = FixOutcome::Taken;
                 }
                 Err(TagRefusal::Gate) => {
-                    self.refused_off_range |= !self.estimator.refused_at_its_range();
+                    let off = !self.estimator.refused_at_its_range();
+                    self.refused_off_range |= off;
+                    off_range |= off;
+                    refused = refused.saturating_add(1);
                     leapt &= self
                         .camera
                         .leaps(self.estimator.refused_by(), self.counters.ticks);
@@ -675,13 +691,15 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         // picture, each at the range its tag should have (a tag moved from its place
         // shows in its range), is sure of a heading that is not the robot's: it forgets
         // the heading, as the fix relocalises; unless the refusals began with a leap
-        // ([`crate::camera_check`]).
+        // ([`crate::camera_check`]) or a camera behind explains them. Refused off in
+        // range by two tags the depth sensor vouches for, it forgets the position.
         match outcome {
             FixOutcome::Taken => {
                 self.counters.fixes_taken += 1;
                 self.camera.taken(self.counters.ticks);
                 self.gate_rejections_in_a_row = 0;
                 self.refused_off_range = false;
+                self.witnessed_off_range_in_a_row = 0;
             }
             FixOutcome::Rejected(FixRejection::Gate) => {
                 self.counters.fixes_rejected_gate += 1;
@@ -691,7 +709,12 @@ impl<const W: usize, const H: usize> Slam<W, H> {
                     self.counters.pictures_leapt += 1;
                 }
                 let limit = self.config.fix.relocalise_after;
-                if limit != 0 && self.gate_rejections_in_a_row > limit && !self.refused_off_range {
+                if self.position_refused(refused >= 2 && off_range && witness == Witness::Agrees) {
+                    // Forgotten: the heading is not also.
+                } else if limit != 0
+                    && self.gate_rejections_in_a_row > limit
+                    && !self.refused_off_range
+                {
                     if let Some(lag) = self.lag_that_explains(frame) {
                         self.camera.behind(lag);
                         self.counters.pictures_late += 1;
@@ -707,6 +730,33 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             _ => {}
         }
         outcome
+    }
+
+    /// A picture whose every sighting the gate refused: `witnessed` if two or more were,
+    /// one at least off in range, and the depth sensor sees the tags where the camera
+    /// does. A filter sure of its position that such pictures refuse, picture after
+    /// picture, is sure of a position that is not the robot's (the flow lost a few ticks
+    /// of a drive), where a tag moved from its place is refused alone while the others
+    /// are taken, and a camera lying in range disagrees with the depth sensor: it forgets
+    /// the position, whatever the leap check says of the run. Returns whether it forgot.
+    #[cold]
+    #[inline(never)]
+    fn position_refused(&mut self, witnessed: bool) -> bool {
+        self.witnessed_off_range_in_a_row = match witnessed {
+            true => self.witnessed_off_range_in_a_row.saturating_add(1),
+            false => 0,
+        };
+        let limit = self.config.fix.relocalise_after;
+        let forgot = limit != 0
+            && self.witnessed_off_range_in_a_row > limit
+            && self.estimator.forget_position();
+        if forgot {
+            self.counters.relocalisations += 1;
+            self.witnessed_off_range_in_a_row = 0;
+            self.gate_rejections_in_a_row = 0;
+            self.camera.relocalised();
+        }
+        forgot
     }
 
     /// Whether a picture's tags may move the position at most

@@ -26,6 +26,8 @@ pub const FORGOTTEN_HEADING_MDEG: i64 = 2_000;
 /// The position's deviation within which the filter is sure enough of it to forget its
 /// heading ([`Estimator::forget_heading`]), millimetres.
 pub const SURE_POSITION_MM: i64 = 20;
+/// The position's deviation after [`Estimator::forget_position`], millimetres.
+pub const FORGOTTEN_POSITION_MM: i64 = 50;
 /// Updates after [`Estimator::forget_heading`] that settle the whole matrix.
 const SETTLED_FULLY_AFTER_FORGETTING: u8 = 30;
 
@@ -297,6 +299,27 @@ impl Estimator {
         true
     }
 
+    /// Forgets what the filter knew of the position when it is sure of it (within
+    /// `SURE_POSITION_MM`) and two tags have refused it together for a while, their
+    /// ranges where the depth sensor sees them: a position held sure against the tags,
+    /// as after the flow lost a few ticks of a drive. The position's correlations are
+    /// dropped and its deviation raised to `FORGOTTEN_POSITION_MM`, and the next sighting
+    /// is taken past the gate ([`Estimator::forget_heading`] alike). Returns whether it
+    /// forgot.
+    pub fn forget_position(&mut self) -> bool {
+        let sure = square(units::position_from_um(SURE_POSITION_MM * 1000));
+        if self.p.get(State::X, State::X) > sure || self.p.get(State::Y, State::Y) > sure {
+            return false;
+        }
+        let forgotten = square(units::position_from_um(FORGOTTEN_POSITION_MM * 1000));
+        self.p.forget(State::X, forgotten);
+        self.p.forget(State::Y, forgotten);
+        self.settle();
+        self.settle_fully = SETTLED_FULLY_AFTER_FORGETTING;
+        self.ungated = true;
+        true
+    }
+
     /// Adds a correction, in fine units, to the calibration, within its limits.
     ///
     /// In 32 bits where both fit them (the calibration always does: its limits are under
@@ -491,6 +514,42 @@ mod tests {
             e.p.get(State::Heading, State::Heading) - h0,
             e.p.get(State::X, State::X) - x0,
         )
+    }
+
+    #[test]
+    fn a_filter_sure_of_its_position_forgets_it_and_an_unsure_one_does_not() {
+        let mut e = Estimator::new(EstimatorConfig::SEED);
+        // A drive along +y: the heading's error moves x.
+        let before = Pose::default();
+        let after = Pose {
+            y_um: 10_000,
+            ..before
+        };
+        let drive = Motion {
+            forward_um: 10_000,
+            ..Motion::default()
+        };
+        e.predict(
+            &before,
+            &after,
+            &drive,
+            100_000,
+            Known::Read(()),
+            Known::Read(()),
+        );
+        assert_ne!(e.p.get(State::X, State::Heading), 0);
+        let heading = e.p.get(State::Heading, State::Heading);
+        assert!(e.forget_position());
+        let forgotten = square(units::position_from_um(FORGOTTEN_POSITION_MM * 1000));
+        assert_eq!(e.p.get(State::X, State::X), forgotten);
+        assert_eq!(e.p.get(State::Y, State::Y), forgotten);
+        assert_eq!(e.p.get(State::X, State::Heading), 0);
+        assert_eq!(e.p.get(State::Heading, State::Heading), heading);
+        assert!(e.ungated);
+        // Now unsure of it (50 mm): nothing more to forget.
+        e.ungated = false;
+        assert!(!e.forget_position());
+        assert!(!e.ungated);
     }
 
     #[test]
