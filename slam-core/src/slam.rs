@@ -194,7 +194,8 @@ pub struct Counters {
     /// history reaches.
     pub fixes_rejected_too_old: u32,
     /// Fixes taken against the gate after too many rejections in a row, or (the filter)
-    /// times the heading was forgotten for them ([`crate::Estimator::forget_heading`]).
+    /// times the heading or the position was forgotten for them
+    /// ([`crate::Estimator::forget_heading`], [`crate::Estimator::forget_position`]).
     pub relocalisations: u32,
     /// Pictures refused whole for repeating the last one bit for bit
     /// ([`crate::camera_check`]).
