@@ -203,7 +203,8 @@ pub struct Counters {
     /// Pictures the gate refused whose refusals began with a leap: they do not count
     /// towards forgetting the heading ([`crate::camera_check`]).
     pub pictures_leapt: u32,
-    /// Pictures refused whole for repeating one from a few ticks before: the camera had
+    /// Pictures refused whole for repeating one from a few ticks before, or refused
+    /// picture after picture and fitting a moment a few ticks older: the camera had
     /// fallen behind, and the pictures after them are taken as that much older
     /// ([`crate::camera_check`]).
     pub pictures_late: u32,
