@@ -41,25 +41,25 @@ pub struct PoseErrors {
 /// The pose figures of `ticks`, in time order.
 pub fn pose_errors(ticks: &[TickRecord]) -> PoseErrors {
     let first_fix = ticks.iter().position(|t| t.fix_taken);
-    // `f64::max` ignores NaN, so ticks without a truth drop out of the maxima.
-    let after = |f: fn(&TickRecord) -> f64| {
-        first_fix.map_or(0.0, |i| ticks.iter().skip(i).map(f).fold(0.0, f64::max))
+    // The largest of `f` over the ticks from `settle_s` after the first fix on (0 without
+    // one); `f64::max` ignores NaN, so ticks without a truth drop out of the maxima.
+    let after = |settle_s: f64, f: fn(&TickRecord) -> f64| {
+        first_fix.map_or(0.0, |i| {
+            let from_s = ticks[i].t_s + settle_s;
+            ticks[i..]
+                .iter()
+                .filter(|t| t.t_s >= from_s)
+                .map(f)
+                .fold(0.0, f64::max)
+        })
     };
-    let settled = first_fix.map_or(0.0, |i| {
-        let from_s = ticks[i].t_s + SETTLE_S;
-        ticks[i..]
-            .iter()
-            .filter(|t| t.t_s >= from_s)
-            .map(|t| t.error_cm)
-            .fold(0.0, f64::max)
-    });
     let last = ticks.iter().rev().find(|t| t.error_cm.is_finite());
     PoseErrors {
         final_error_cm: last.map_or(0.0, |t| t.error_cm),
-        max_error_after_first_fix_cm: after(|t| t.error_cm),
-        max_error_1s_after_first_fix_cm: settled,
+        max_error_after_first_fix_cm: after(0.0, |t| t.error_cm),
+        max_error_1s_after_first_fix_cm: after(SETTLE_S, |t| t.error_cm),
         final_heading_error_deg: last.map_or(0.0, |t| t.heading_error_deg.abs()),
-        max_heading_error_after_first_fix_deg: after(|t| t.heading_error_deg.abs()),
+        max_heading_error_after_first_fix_deg: after(0.0, |t| t.heading_error_deg.abs()),
         max_error_cm: ticks.iter().map(|t| t.error_cm).fold(0.0, f64::max),
         max_heading_error_deg: ticks
             .iter()
@@ -70,7 +70,9 @@ pub fn pose_errors(ticks: &[TickRecord]) -> PoseErrors {
 }
 
 /// How long after the first fix [`PoseErrors::max_error_1s_after_first_fix_cm`] starts,
-/// seconds.
+/// seconds: a second less a nanosecond, because the simulator's clock adds up 0.1 s
+/// steps in binary floating point (ten ticks after 0 s it reads 0.9999999999999999 s),
+/// and the tick a second after the fix belongs in the window.
 const SETTLE_S: f64 = 1.0 - 1e-9;
 
 /// The largest tick-to-tick change of the error vector (estimate minus truth), cm; pairs

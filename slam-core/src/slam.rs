@@ -722,9 +722,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
                         self.counters.pictures_late += 1;
                         self.gate_rejections_in_a_row = 0;
                     } else if self.estimator.forget_heading() {
-                        self.counters.relocalisations += 1;
-                        self.gate_rejections_in_a_row = 0;
-                        self.camera.relocalised();
+                        self.relocalised();
                     }
                 }
             }
@@ -753,12 +751,18 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             && self.witnessed_off_range_in_a_row > limit
             && self.estimator.forget_position();
         if forgot {
-            self.counters.relocalisations += 1;
-            self.witnessed_off_range_in_a_row = 0;
-            self.gate_rejections_in_a_row = 0;
-            self.camera.relocalised();
+            self.relocalised();
         }
         forgot
+    }
+
+    /// The filter forgot its heading or its position: counted, and every run of refused
+    /// pictures that could lead there starts again.
+    fn relocalised(&mut self) {
+        self.counters.relocalisations += 1;
+        self.gate_rejections_in_a_row = 0;
+        self.witnessed_off_range_in_a_row = 0;
+        self.camera.relocalised();
     }
 
     /// Whether a picture's tags may move the position at most
