@@ -16,6 +16,10 @@
 //! every frame the sensor gives and costs the tick nothing; its verdict comes to the core
 //! with the scan ([`crate::SensorFrame::depth_doubt`]).
 //!
+//! A frame is held to the one before it, or, where too few zones have returns in both
+//! to compare (dropouts), to the one before that: a step that begins just after a frame
+//! with lost returns still shows, and is counted once.
+//!
 //! [`DepthSteps`] sums such steps as the sensor's offset and doubts the depth sensor
 //! ([`Doubt::Jump`]) until the offset is back within one step of where it was (the
 //! opposite step, when the sensor recovers) or a tag vouches for the ranges.
@@ -105,6 +109,17 @@ pub fn step(
     shift: i32,
     config: &DepthStepConfig,
 ) -> Option<i32> {
+    compare(before, now, shift, config).flatten()
+}
+
+/// [`step`], told apart from too few zones compared: `None` when fewer than
+/// [`DepthStepConfig::min_zones`] were, else whether they stepped.
+fn compare(
+    before: &DepthScan,
+    now: &DepthScan,
+    shift: i32,
+    config: &DepthStepConfig,
+) -> Option<Option<i32>> {
     let least = i32::from(config.min_step_mm);
     let (mut compared, mut up, mut down, mut sum) = (0u8, 0u8, 0u8, 0i32);
     for i in 0..BEAMS {
@@ -117,7 +132,7 @@ pub fn step(
         sum += change;
     }
     let together = up == compared || down == compared;
-    (compared >= config.min_zones && together).then(|| sum / i32::from(compared))
+    (compared >= config.min_zones).then(|| together.then(|| sum / i32::from(compared)))
 }
 
 /// Zone `i`'s range in `now` less the range predicted for it from `before`, the fan
@@ -162,13 +177,15 @@ fn spread(before: &DepthScan, now: &DepthScan, shift: i32, min_zones: u8) -> Opt
 /// at their moments.
 const FRAMES_KEPT: usize = 6;
 
-/// A frame as it came: its moment (microseconds on the caller's clock, wrapping) and the
-/// gyro's heading then.
+/// A frame as it came: its moment (microseconds on the caller's clock, wrapping), the
+/// gyro's heading then, and the step it was found to make, millimetres (0: none, or not
+/// held to a frame before).
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 struct Seen {
     scan: DepthScan,
     moment_us: u32,
     heading: Angle,
+    step_mm: i32,
 }
 
 /// The frames seen so far, the offset their steps sum to, and how late they come.
@@ -293,10 +310,11 @@ impl DepthSteps {
         if again {
             return self.verdict(config);
         }
-        let now = Seen {
+        let mut now = Seen {
             scan: *scan,
             moment_us,
             heading,
+            step_mm: 0,
         };
         let was_late = self.late_us > 0;
         if let Some(before) = self.back(0).copied() {
@@ -309,17 +327,41 @@ impl DepthSteps {
             }
             // A frame late, or the first on time after late ones, is not where the turn
             // says: its ranges are not held to the one before's.
-            let apart = moment_us.wrapping_sub(before.moment_us);
-            if !was_late && self.late_us == 0 && apart <= config.most_apart_us {
-                let shift = fan.shift(before.heading, heading);
-                if let Some(s) = step(&before.scan, scan, shift, config) {
-                    self.offset_mm = self.offset_mm.saturating_add(s);
-                }
+            if !was_late && self.late_us == 0 {
+                now.step_mm = self.step_from_recent(&now, fan, config).unwrap_or(0);
+                self.offset_mm = self.offset_mm.saturating_add(now.step_mm);
             }
         }
         self.newest = (self.newest + 1) % FRAMES_KEPT as u8;
         self.frames[usize::from(self.newest)] = Some(now);
         self.verdict(config)
+    }
+
+    /// The step `now` makes from the newest frame; if too few zones compare with it (a
+    /// return lost in either), from the one before, unless the newest made a step of
+    /// its own (counted once, not twice). A dropout in the frame before the sensor goes
+    /// wrong must not hide the step. Frames further apart than
+    /// [`DepthStepConfig::most_apart_us`] are not compared.
+    fn step_from_recent(
+        &self,
+        now: &Seen,
+        fan: &ZoneTurn,
+        config: &DepthStepConfig,
+    ) -> Option<i32> {
+        for back in 0..2 {
+            let before = self.back(back)?;
+            if now.moment_us.wrapping_sub(before.moment_us) > config.most_apart_us {
+                return None;
+            }
+            let shift = fan.shift(before.heading, now.heading);
+            if let Some(stepped) = compare(&before.scan, &now.scan, shift, config) {
+                return stepped;
+            }
+            if before.step_mm != 0 {
+                return None;
+            }
+        }
+        None
     }
 
     /// The verdict as the last frame left it.
@@ -447,6 +489,46 @@ mod tests {
             self.steps
                 .judge(scan, self.moment_us, heading, &self.fan, &LIMITS)
         }
+    }
+
+    /// `ranges` with the zones `lost` returning nothing.
+    fn losing(ranges: u16, lost: &[usize]) -> DepthScan {
+        let mut s = scan([ranges; BEAMS]);
+        for &i in lost {
+            s.ranges_mm[i] = None;
+        }
+        s
+    }
+
+    #[test]
+    fn a_step_after_a_frame_with_lost_returns_is_held_to_the_frame_before() {
+        let mut feed = Feed::new();
+        assert_eq!(feed.frame(&scan([1_000; BEAMS]), 0), Ok(()));
+        // Four returns lost: too few zones compare with it, and it steps from nothing.
+        assert_eq!(feed.frame(&losing(1_001, &[1, 3, 5, 7]), 0), Ok(()));
+        // The sensor goes 150 mm long: the step shows against the frame before.
+        assert_eq!(feed.frame(&scan([1_152; BEAMS]), 0), Err(Doubt::Jump));
+        assert_eq!(feed.frame(&scan([1_151; BEAMS]), 0), Err(Doubt::Jump));
+        // And back, after another frame with lost returns: the step back shows too.
+        assert_eq!(
+            feed.frame(&losing(1_153, &[0, 2, 4, 6]), 0),
+            Err(Doubt::Jump)
+        );
+        assert_eq!(feed.frame(&scan([1_003; BEAMS]), 0), Ok(()));
+    }
+
+    #[test]
+    fn a_step_is_counted_once_across_a_frame_with_lost_returns() {
+        let mut feed = Feed::new();
+        assert_eq!(feed.frame(&scan([1_000; BEAMS]), 0), Ok(()));
+        // The step, seen as it comes (five zones compare).
+        assert_eq!(feed.frame(&losing(1_150, &[0, 1]), 0), Err(Doubt::Jump));
+        // Three zones compare with the step's frame and five with the frame before it:
+        // the same step must not be counted again against that one.
+        assert_eq!(feed.frame(&losing(1_151, &[5, 6]), 0), Err(Doubt::Jump));
+        // One step back (against the step's frame: four zones compare with this one's)
+        // ends the doubt: 150 counted, 150 back.
+        assert_eq!(feed.frame(&scan([1_002; BEAMS]), 0), Ok(()));
     }
 
     #[test]
