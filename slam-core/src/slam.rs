@@ -301,10 +301,10 @@ pub struct Slam<const W: usize, const H: usize> {
     /// Whether a tag the filter's gate refused since it last took one was refused at a
     /// range its listed place does not have.
     refused_off_range: bool,
-    /// Pictures in a row whose every sighting the gate refused, two or more of them and
-    /// one at least off in range, with the depth sensor seeing the tags where the camera
-    /// does ([`Slam::position_refused`]).
-    witnessed_off_range_in_a_row: u8,
+    /// Pictures in a row whose every sighting the gate refused, two or more of them,
+    /// since one was refused off in range, with the depth sensor not seeing the tags
+    /// elsewhere ([`Slam::position_refused`]).
+    off_range_in_a_row: u8,
     /// The camera held to itself: pictures given again, sightings that leap.
     camera: CameraCheck,
     estimator: Estimator,
@@ -345,7 +345,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             counters: Counters::default(),
             gate_rejections_in_a_row: 0,
             refused_off_range: false,
-            witnessed_off_range_in_a_row: 0,
+            off_range_in_a_row: 0,
             camera: CameraCheck::new(&config.fix.leap),
             estimator: Estimator::new(config.estimator),
             #[cfg(feature = "matching")]
@@ -379,7 +379,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         self.counters = Counters::default();
         self.gate_rejections_in_a_row = 0;
         self.refused_off_range = false;
-        self.witnessed_off_range_in_a_row = 0;
+        self.off_range_in_a_row = 0;
         self.camera = CameraCheck::new(&self.config.fix.leap);
         self.estimator = Estimator::new(self.config.estimator);
         #[cfg(feature = "matching")]
@@ -600,8 +600,8 @@ impl<const W: usize, const H: usize> Slam<W, H> {
     /// turn, but for rounding, for half the work with two tags in view).
     fn filter_tags(&mut self, frame: &SensorFrame, witness: Witness) -> FixOutcome {
         let mut outcome = FixOutcome::NotAttempted;
-        // Sightings the gate refused, and whether any was off in range.
-        let (mut refused, mut off_range) = (0u8, false);
+        // Sightings the gate refused.
+        let mut refused = 0u8;
         match self.camera.judge(&frame.tags, self.counters.ticks) {
             Picture::New => {}
             Picture::Repeated => {
@@ -667,7 +667,6 @@ impl<const W: usize, const H: usize> Slam<W, H> {
                 Err(TagRefusal::Gate) => {
                     let off = !self.estimator.refused_at_its_range();
                     self.refused_off_range |= off;
-                    off_range |= off;
                     refused = refused.saturating_add(1);
                     leapt &= self
                         .camera
@@ -694,14 +693,14 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         // shows in its range), is sure of a heading that is not the robot's: it forgets
         // the heading, as the fix relocalises; unless the refusals began with a leap
         // ([`crate::camera_check`]) or a camera behind explains them. Refused off in
-        // range by two tags the depth sensor vouches for, it forgets the position.
+        // range by two tags the depth sensor does not contradict, it forgets the position.
         match outcome {
             FixOutcome::Taken => {
                 self.counters.fixes_taken += 1;
                 self.camera.taken(self.counters.ticks);
                 self.gate_rejections_in_a_row = 0;
                 self.refused_off_range = false;
-                self.witnessed_off_range_in_a_row = 0;
+                self.off_range_in_a_row = 0;
             }
             FixOutcome::Rejected(FixRejection::Gate) => {
                 self.counters.fixes_rejected_gate += 1;
@@ -711,7 +710,8 @@ impl<const W: usize, const H: usize> Slam<W, H> {
                     self.counters.pictures_leapt += 1;
                 }
                 let limit = self.config.fix.relocalise_after;
-                if self.position_refused(refused >= 2 && off_range && witness == Witness::Agrees) {
+                let together = (refused >= 2 && self.refused_off_range).then_some(witness);
+                if self.position_refused(together) {
                     // Forgotten: the heading is not also.
                 } else if limit != 0
                     && self.gate_rejections_in_a_row > limit
@@ -732,24 +732,26 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         outcome
     }
 
-    /// A picture whose every sighting the gate refused: `witnessed` if two or more were,
-    /// one at least off in range, and the depth sensor sees the tags where the camera
-    /// does. A filter sure of its position that such pictures refuse, picture after
-    /// picture, is sure of a position that is not the robot's (the flow lost a few ticks
-    /// of a drive), where a tag moved from its place is refused alone while the others
-    /// are taken, and a camera lying in range disagrees with the depth sensor: it forgets
-    /// the position, whatever the leap check says of the run. Returns whether it forgot.
+    /// A picture whose every sighting the gate refused: `together` with what the depth
+    /// sensor said of the tags if two or more were refused, and a refusal since the last
+    /// sighting taken was off in range (as the refusals go on the filter grows less sure
+    /// of its position, and the same offset soon fits the range alone). A filter sure of
+    /// its position that such pictures refuse, picture after picture, is sure of a
+    /// position that is not the robot's (the flow lost a few ticks of a drive), where a
+    /// tag moved from its place is refused alone while the others are taken, and a camera
+    /// lying in range disagrees with the depth sensor where its fan holds the tags: after
+    /// `relocalise_after` such pictures in a row it forgets the position, whatever the
+    /// leap check says of the run. Returns whether it forgot.
     #[cold]
     #[inline(never)]
-    fn position_refused(&mut self, witnessed: bool) -> bool {
-        self.witnessed_off_range_in_a_row = match witnessed {
-            true => self.witnessed_off_range_in_a_row.saturating_add(1),
-            false => 0,
+    fn position_refused(&mut self, together: Option<Witness>) -> bool {
+        self.off_range_in_a_row = match together {
+            Some(Witness::Agrees | Witness::Silent) => self.off_range_in_a_row.saturating_add(1),
+            Some(Witness::Disagrees) | None => 0,
         };
         let limit = self.config.fix.relocalise_after;
-        let forgot = limit != 0
-            && self.witnessed_off_range_in_a_row > limit
-            && self.estimator.forget_position();
+        let forgot =
+            limit != 0 && self.off_range_in_a_row > limit && self.estimator.forget_position();
         if forgot {
             self.relocalised();
         }
@@ -761,7 +763,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
     fn relocalised(&mut self) {
         self.counters.relocalisations += 1;
         self.gate_rejections_in_a_row = 0;
-        self.witnessed_off_range_in_a_row = 0;
+        self.off_range_in_a_row = 0;
         self.camera.relocalised();
     }
 
