@@ -548,9 +548,9 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             Some((_, None)) => {
                 stale.depth = true;
                 self.counters.depth_stale += 1;
-                0
+                self.expire_sweep()
             }
-            None => 0,
+            None => self.expire_sweep(),
         };
         StepReport::of(
             &self.pose,
@@ -852,6 +852,31 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             }
         }
         written.unwrap_or(0)
+    }
+
+    /// On a tick that brings the sweep no scan, writes into the map the scans that have
+    /// been in it for [`SWEEP_TICKS`] ticks, as a scan coming in would have pushed them
+    /// out ([`Sweep::expired`]); returns the cells written. Without matching, nothing.
+    #[cold]
+    #[inline(never)]
+    fn expire_sweep(&mut self) -> u32 {
+        #[cfg(feature = "matching")]
+        if self.config.matching.is_some() {
+            let mut written = 0;
+            while let Some(old) = self.sweep.expired(self.counters.ticks, SWEEP_TICKS as u32) {
+                let mut map = self.map.beams();
+                written += map_scan(
+                    &mut map,
+                    &self.config,
+                    &mut self.counters,
+                    &old.scan,
+                    &old.pose,
+                );
+                self.map_uncertainty.wrote(&self.estimator);
+            }
+            return written;
+        }
+        0
     }
 
     /// Leaves each step's match to the caller ([`Slam::search_match`], then

@@ -107,6 +107,25 @@ impl<const N: usize> Sweep<N> {
         left
     }
 
+    /// Takes out the oldest scan held if it was taken `max_age` ticks or more before tick
+    /// `now`, with its pose: a sweep holds the last ticks' scans, not the last scans, so
+    /// ticks that bring none (a scan withheld, a frame lost) must not keep old ones in
+    /// it, where every correction since would carry them as if they were recent.
+    pub fn expired(&mut self, now: u32, max_age: u32) -> Option<SweepScan> {
+        let rank =
+            (0..N).find(|&rank| matches!(self.scans.get(self.slot_of(rank)), Some(Some(_))))?;
+        let at = self.slot_of(rank);
+        let s = (*self.scans.get(at)?)?;
+        if now.wrapping_sub(s.tick) < max_age {
+            return None;
+        }
+        let pose = self.carried(rank, &s.pose);
+        if let Some(slot) = self.scans.get_mut(at) {
+            *slot = None;
+        }
+        Some(SweepScan { pose, ..s })
+    }
+
     /// The scan the next push takes out, if the ring is full, with its pose.
     pub fn leaving(&self) -> Option<(&DepthScan, Pose)> {
         let s = self.scans.get(self.next)?.as_ref()?;
@@ -266,8 +285,9 @@ mod tests {
     use crate::lcg::Lcg;
     use crate::pose::{Pose, RigidMotion};
 
-    /// Pushes, corrections, settles and reads in a random order: every pose read out of
-    /// a sweep that records its corrections is the pose of one that applies each at once.
+    /// Pushes, corrections, settles, scans expiring and reads in a random order: every
+    /// pose read out of a sweep that records its corrections is the pose of one that
+    /// applies each at once, and a scan expires, oldest first, once it is old enough.
     #[test]
     fn a_recorded_correction_reads_as_one_applied_at_once() {
         const N: usize = 4;
@@ -283,8 +303,8 @@ mod tests {
         // Oldest first, each correction applied to every scan at once.
         let mut eager: Vec<SweepScan> = Vec::new();
         for step in 0..2000u32 {
-            match rng.within(3) {
-                -3..=-1 => {
+            match rng.within(4) {
+                -4..=-1 => {
                     let (p, scan) = (pose(&mut rng), DepthScan::default());
                     let expected = (eager.len() == N).then(|| eager.remove(0));
                     eager.push(SweepScan {
@@ -302,6 +322,16 @@ mod tests {
                     lazy.carry(&motion);
                 }
                 2 => lazy.settle(),
+                3 => {
+                    let max_age = 1 + rng.within(6).unsigned_abs() as u32;
+                    let old_enough = |s: &SweepScan| step.wrapping_sub(s.tick) >= max_age;
+                    let expected = eager
+                        .first()
+                        .filter(|s| old_enough(s))
+                        .is_some()
+                        .then(|| eager.remove(0));
+                    assert_eq!(lazy.expired(step, max_age), expected, "step {step}");
+                }
                 _ if rng.within(10) == 0 => {
                     eager.clear();
                     lazy.clear();
