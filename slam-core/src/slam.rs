@@ -665,8 +665,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
                     outcome = FixOutcome::Taken;
                 }
                 Err(TagRefusal::Gate) => {
-                    let off = !self.estimator.refused_at_its_range();
-                    self.refused_off_range |= off;
+                    self.refused_off_range |= !self.estimator.refused_at_its_range();
                     refused = refused.saturating_add(1);
                     leapt &= self
                         .camera
@@ -864,14 +863,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         if self.config.matching.is_some() {
             let mut written = 0;
             while let Some(old) = self.sweep.expired(self.counters.ticks, SWEEP_TICKS as u32) {
-                let mut map = self.map.beams();
-                written += map_scan(
-                    &mut map,
-                    &self.config,
-                    &mut self.counters,
-                    &old.scan,
-                    &old.pose,
-                );
+                written += self.map_scan(&old.scan, &old.pose);
                 self.map_uncertainty.wrote(&self.estimator);
             }
             return written;

@@ -300,8 +300,8 @@ impl Estimator {
     }
 
     /// Forgets what the filter knew of the position when it is sure of it (within
-    /// `SURE_POSITION_MM`) and two tags have refused it together for a while, their
-    /// ranges where the depth sensor sees them: a position held sure against the tags,
+    /// `SURE_POSITION_MM`) and two tags have refused it together for a while, the depth
+    /// sensor not seeing them elsewhere: a position held sure against the tags,
     /// as after the flow lost a few ticks of a drive. The position's correlations are
     /// dropped and its deviation raised to `FORGOTTEN_POSITION_MM`, and the next sighting
     /// is taken past the gate ([`Estimator::forget_heading`] alike). Returns whether it
