@@ -26,6 +26,8 @@ use embassy_time::{Duration, Instant, Ticker};
 use portable_atomic::Ordering;
 #[cfg(feature = "matching")]
 use slam_core::wall_rate::WallRate;
+#[cfg(feature = "matching")]
+use slam_core::wall_turn::WallTurn;
 use slam_core::{Decision, DriveCommand, GuardConfig, Localiser, Pose, SensorFrame, StepReport};
 use wire::telemetry::{encode, FirmwareVersion, Message, Schedule, Streamer, MAX_FRAME_LEN};
 
@@ -136,12 +138,15 @@ const FIRMWARE_VERSION: FirmwareVersion = FirmwareVersion {
 /// each see the newest report and never hold the loop up; a slow reader skips reports.
 pub static REPORTS: Watch<CriticalSectionRawMutex, TickReport, REPORT_READERS> = Watch::new();
 
-/// The drive at a wall under way, measuring the flow's scale (`Slam::measure_walls`):
-/// beside the core, not in its retained state (a reset loses at most one drive), and not
-/// in the task's own state, whose layout the step inlined in it feels.
+/// The drive at a wall under way, measuring the flow's scale, and the wall the gyro's turn
+/// is held to (`Slam::measure_walls`): beside the core, not in its retained state (a
+/// reset loses at most one drive and one wall), and not in the task's own state, whose
+/// layout the step inlined in it feels.
 #[cfg(feature = "matching")]
-static WALLS: embassy_sync::blocking_mutex::Mutex<CriticalSectionRawMutex, Cell<WallRate>> =
-    embassy_sync::blocking_mutex::Mutex::new(Cell::new(WallRate::new()));
+static WALLS: embassy_sync::blocking_mutex::Mutex<
+    CriticalSectionRawMutex,
+    Cell<(WallRate, WallTurn)>,
+> = embassy_sync::blocking_mutex::Mutex::new(Cell::new((WallRate::new(), WallTurn::new())));
 
 /// A follower of [`REPORTS`].
 pub type ReportReceiver = Receiver<'static, CriticalSectionRawMutex, TickReport, REPORT_READERS>;
@@ -320,10 +325,13 @@ pub async fn slam_task(
                 }
             }
             let report = saved.slam().finish_match(report);
-            // A drive at a wall measures the flow's scale, off the step as the match.
-            let mut walls = WALLS.lock(Cell::get);
-            let report = saved.slam().measure_walls(&mut walls, &frame, report);
-            WALLS.lock(|w| w.set(walls));
+            // A drive at a wall measures the flow's scale and holds the gyro's turn to
+            // the wall's, off the step as the match.
+            let (mut walls, mut turn) = WALLS.lock(Cell::get);
+            let report = saved
+                .slam()
+                .measure_walls(&mut walls, &mut turn, &frame, report);
+            WALLS.lock(|w| w.set((walls, turn)));
             report
         };
         let matched = Instant::now();

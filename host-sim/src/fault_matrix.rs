@@ -5,7 +5,10 @@
 //! added over the run without the fault, the position error 2 s after the sensor came
 //! back beside the unfaulted run's at the same tick, and the time to recover: from the
 //! sensor's return to the first tick from which the error stays within
-//! [`RECOVERED_CM`] of the unfaulted run's to the end.
+//! [`RECOVERED_CM`] of the unfaulted run's, or below it, to the end. A run that ends up
+//! surer than the one without the fault (its route held a few seconds, so its turns and
+//! tags come at other ticks) has not failed to recover; the error 2 s after the return
+//! is likewise counted only above the unfaulted run's.
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
@@ -155,7 +158,7 @@ fn run_case(
         // The first tick from which the error stays close to the unfaulted run's.
         let mut recovered_at = None;
         for i in (from..n).rev() {
-            if (error(&out, i) - error(base, i)).abs() > RECOVERED_CM {
+            if error(&out, i) - error(base, i) > RECOVERED_CM {
                 break;
             }
             recovered_at = Some(i);

@@ -637,9 +637,10 @@ fn cmd_bench(args: BenchArgs) -> Result<(), Failure> {
     for _ in 0..replays {
         slam.reset(start);
         let mut walls = slam_core::wall_rate::WallRate::default();
+        let mut turn = slam_core::wall_turn::WallTurn::default();
         for frame in &frames {
             let report = slam.step(std::hint::black_box(frame));
-            let report = slam.measure_walls(&mut walls, frame, report);
+            let report = slam.measure_walls(&mut walls, &mut turn, frame, report);
             fixes += u32::from(report.fix == slam_core::FixOutcome::Taken);
         }
     }

@@ -22,6 +22,7 @@ use crate::scenario::Scenario;
 use crate::telemetry::TelemetryWriter;
 use serde::Serialize;
 use slam_core::wall_rate::WallRate;
+use slam_core::wall_turn::WallTurn;
 use slam_core::{GridMap, Slam};
 use std::fmt;
 use wire::telemetry::{
@@ -310,8 +311,10 @@ impl Run<'_> {
         };
         // The robot's number of the last tick stepped, and what the replay made of it.
         let mut last: Option<(u32, Tick, Option<FilterState>)> = None;
-        // The drive at a wall under way, as the robot keeps it beside its core.
+        // The drive at a wall under way and the wall the gyro is held to, as the robot
+        // keeps them beside its core.
         let mut walls = WallRate::default();
+        let mut turn = WallTurn::default();
         // The robot's number of the last `Tick` it sent: map chunks after it belong to it.
         let mut robot_tick: Option<u32> = None;
         for message in self.messages {
@@ -334,7 +337,7 @@ impl Run<'_> {
                             );
                         }
                     }
-                    last = Some(self.step(&mut slam, &mut walls, &mut writer, i));
+                    last = Some(self.step(&mut slam, (&mut walls, &mut turn), &mut writer, i));
                     summary.steps += 1;
                 }
                 Message::Tick(t) => {
@@ -390,12 +393,12 @@ impl Run<'_> {
     fn step<const W: usize, const H: usize>(
         &self,
         slam: &mut Slam<W, H>,
-        walls: &mut WallRate,
+        (walls, turn): (&mut WallRate, &mut WallTurn),
         writer: &mut TelemetryWriter,
         i: &Inputs,
     ) -> (u32, Tick, Option<FilterState>) {
         let report = slam.step(&i.frame);
-        let report = slam.measure_walls(walls, &i.frame, report);
+        let report = slam.measure_walls(walls, turn, &i.frame, report);
         writer.tick(
             i.time_ms,
             &i.frame,

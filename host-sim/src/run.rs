@@ -499,8 +499,10 @@ fn run_sized<const W: usize, const H: usize>(
     // The depth frames held to each other where they arrive, as the firmware's depth task
     // does, over the gyro's own integral.
     let mut depth_steps = DepthFrames::new(&config);
-    // The drive at a wall under way ([`Slam::measure_walls`]).
+    // The drive at a wall under way and the wall the gyro is held to
+    // ([`Slam::measure_walls`]).
     let mut walls = slam_core::wall_rate::WallRate::default();
+    let mut turn = slam_core::wall_turn::WallTurn::default();
     while let Some(command) = route.command() {
         if robot.time_s() > MAX_RUN_S {
             route_cut_at_s = Some(robot.time_s());
@@ -527,7 +529,7 @@ fn run_sized<const W: usize, const H: usize>(
         injector.apply(robot.time_s(), &mut frame);
         depth_steps.judge(&mut frame);
         let report = slam.step(&frame);
-        let report = slam.measure_walls(&mut walls, &frame, report);
+        let report = slam.measure_walls(&mut walls, &mut turn, &frame, report);
         if slam.depth_vouched() {
             depth_steps.vouched();
         }

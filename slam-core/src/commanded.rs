@@ -124,6 +124,11 @@ impl RecentCommands {
         first.is_some() && rest.iter().all(|c| c == first)
     }
 
+    /// Whether any of the last commands turned the robot; `None` unless all are known.
+    pub fn turning(&self) -> Option<bool> {
+        self.bounds.map(|(low, high, _)| low != 0 || high != 0)
+    }
+
     /// The slowest and fastest turn the robot can have been commanded over the last
     /// interval, millidegrees per second (0 always among them: a wheel may stop), and the
     /// fastest drive, millimetres per second; `None` unless all the commands are known.

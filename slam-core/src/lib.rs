@@ -31,6 +31,7 @@ pub mod spin_closure;
 pub mod tag_range;
 pub mod tagfix;
 pub mod wall_rate;
+pub mod wall_turn;
 
 pub use angle::Angle;
 pub use estimator::{

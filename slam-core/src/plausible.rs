@@ -107,11 +107,13 @@ pub enum Doubt {
     /// Depth frames that come late: a frame given again after others
     /// ([`crate::depth_step`]); lifted when the frames fit the turn as fresh ones.
     Late,
+    /// A turn the walls in the depth sensor's fan did not make ([`crate::wall_turn`]).
+    UnseenTurn,
 }
 
 impl Doubt {
     /// Every doubt, in the order of [`Doubt::code`].
-    pub const ALL: [Doubt; 8] = [
+    pub const ALL: [Doubt; 9] = [
         Doubt::Missing,
         Doubt::Stuck,
         Doubt::Impossible,
@@ -120,9 +122,10 @@ impl Doubt {
         Doubt::Uncommanded,
         Doubt::DisagreesWithTag,
         Doubt::Late,
+        Doubt::UnseenTurn,
     ];
 
-    /// A small number for the wire: 1 to 8 (0 is "trusted").
+    /// A small number for the wire: 1 to 9 (0 is "trusted").
     pub fn code(self) -> u8 {
         self as u8 + 1
     }
@@ -422,6 +425,22 @@ impl Plausibility {
     /// Whether a tag's distance agreed with the last tick's scan: its ranges are right.
     pub fn depth_vouched(&self) -> bool {
         self.depth_vouched
+    }
+
+    /// Whether the motors were commanded to turn over the last ticks (their intervals and
+    /// the two before, [`RecentCommands`]); `None` unless every command is known.
+    pub fn turning_of_late(&self) -> Option<bool> {
+        self.commands.turning()
+    }
+
+    /// Doubts the gyro for what was found after its tick was judged (the walls'
+    /// turn, [`crate::wall_turn`]): from the next tick the motion that needs it holds,
+    /// and it is trusted again after plausible readings as after any doubt.
+    pub fn doubt_gyro(&mut self, doubt: Doubt) {
+        self.gyro = Watch {
+            doubt: Some(doubt),
+            good_in_a_row: 0,
+        };
     }
 
     /// The trust the last tick ended with.

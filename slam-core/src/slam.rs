@@ -21,6 +21,11 @@ use crate::tag_range::{self, ZoneColumns};
 use crate::tagfix::{self, CameraConfig, FixConfig, FixOutcome, FixRejection, KnownTag, TagMap};
 #[cfg(feature = "matching")]
 use crate::wall_rate::WallRate;
+#[cfg(feature = "matching")]
+use crate::{
+    wall_rate::fit_wall,
+    wall_turn::{self, WallTurn},
+};
 
 /// The depth sensor's fan and the mapper's range limit.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -937,26 +942,69 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         }
     }
 
-    /// The walls ahead measure the flow sensor's scale ([`crate::wall_rate`]) from the
-    /// tick `step` took `frame` in, the drive under way in `walls` (the caller's, as the
-    /// frame is: kept out of the core's own state, whose layout the step's worst case
-    /// feels); returns `report` (the step's, or what [`Slam::finish_match`] returned from
-    /// it) with the pose and the filter's belief after it. Called after every step (after
-    /// [`Slam::finish_match`] by a caller that defers matching): off the step, and out
-    /// of line, so that the caller's loop (the firmware's task, the step inlined in it)
-    /// keeps its code.
+    /// The walls ahead measure the flow sensor's scale ([`crate::wall_rate`]) and hold the
+    /// gyro's turn to their own ([`crate::wall_turn`]) from the tick `step` took `frame`
+    /// in, with the drive under way in `walls` and the wall held in `turn` (the caller's,
+    /// as the frame is: kept out of the core's own state, whose layout the step's worst
+    /// case feels); returns `report` (the step's, or what [`Slam::finish_match`] returned
+    /// from it) with the pose, the filter's belief and the trust after it. Called after
+    /// every step (after [`Slam::finish_match`] by a caller that defers matching): off
+    /// the step, and out of line, so that the caller's loop (the firmware's task, the
+    /// step inlined in it) keeps its code.
     #[cfg(feature = "matching")]
     #[inline(never)]
     pub fn measure_walls(
         &mut self,
         walls: &mut WallRate,
+        turn: &mut WallTurn,
         frame: &SensorFrame,
         report: StepReport,
     ) -> StepReport {
-        if !self.wall_tick(walls, frame, report.trust) {
+        let turned = self.wall_turn_tick(turn, frame, report.trust);
+        if !self.wall_tick(walls, frame, report.trust) && !turned {
             return report;
         }
-        self.with_belief(report)
+        StepReport {
+            trust: self.plausibility.trust(),
+            ..self.with_belief(report)
+        }
+    }
+
+    /// The gyro's turn over this tick, whose inputs `step` trusted as `trust`, held to the
+    /// walls' ([`crate::wall_turn`]): checked when no turn was commanded of late and the
+    /// gyro and the depth sensor are trusted. A gyro the walls part from is doubted, and
+    /// the heading turned back by as much as it turned past them, the filter's heading
+    /// taken as set from outside ([`Estimator::heading_set_by_walls`]). Only with the
+    /// filter. Returns whether the gyro was found out.
+    #[cfg(feature = "matching")]
+    #[inline(never)]
+    fn wall_turn_tick(&mut self, turn: &mut WallTurn, frame: &SensorFrame, trust: Trust) -> bool {
+        if self.config.localiser != Localiser::Filter {
+            return false;
+        }
+        let checked = trust.gyro.is_none()
+            && trust.depth.is_none()
+            && self.plausibility.turning_of_late() == Some(false);
+        let gyro = frame.gyro.filter(|_| checked).map(|g| {
+            let g = self.estimator.correct_gyro(g);
+            wall_turn::gyro_turn_ndeg(g.rate_mdps, frame.dt_us)
+        });
+        let wall = match (&frame.depth, gyro) {
+            (Some(scan), Some(_)) => fit_wall(scan, &self.config.depth.beam_angles),
+            _ => None,
+        };
+        let Some(excess) = turn.observe(wall, gyro) else {
+            return false;
+        };
+        self.plausibility.doubt_gyro(crate::Doubt::UnseenTurn);
+        let then = self.pose;
+        let corrected = Pose {
+            heading: then.heading - excess,
+            ..then
+        };
+        self.carry_past(&RigidMotion::carrying(&then, &corrected));
+        self.estimator.heading_set_by_walls();
+        true
     }
 
     /// The drive at a wall takes this tick, whose inputs `step` trusted as `trust`: a

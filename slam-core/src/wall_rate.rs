@@ -25,6 +25,13 @@ pub struct WallFit {
     pub distance_mm: i32,
     /// The cosine of the angle between the nose and its normal, Q16.
     pub cos_q16: i32,
+    /// Its normal's bearing from the nose, clockwise: as the robot turns clockwise, a
+    /// wall's tilt falls by as much ([`crate::wall_turn`]).
+    pub tilt: Angle,
+    /// The ends it was fitted to.
+    pub ends: u8,
+    /// Their root mean square stray from it, millimetres.
+    pub stray_mm: u16,
 }
 
 /// A drive's measurement of the flow sensor's scale.
@@ -156,6 +163,11 @@ fn line(x: &[i64], y: &[i64]) -> Option<Line> {
     Some(Line::Fits(WallFit {
         distance_mm: i32::try_from(distance).ok()?,
         cos_q16: i32::try_from(cos_q16).ok()?,
+        // The normal (-b, 1): y = a + b x is x sin(tilt) + y cos(tilt) = distance.
+        tilt: Angle::of_vector(-b, 1 << 16),
+        ends: count as u8,
+        // The mean square is within the limit's (Q16), so its root is a few mm.
+        stray_mm: (((total / count) as u64).isqrt() >> 8) as u16,
     }))
 }
 
@@ -374,6 +386,11 @@ mod tests {
             let cos = f64::from(fit.cos_q16) / 65_536.0;
             assert!(
                 (cos - f64::to_radians(tilt).cos()).abs() < 1e-3,
+                "{fit:?} for {tilt}"
+            );
+            let tilt_mdeg = f64::from(fit.tilt.to_millidegrees());
+            assert!(
+                (tilt_mdeg - tilt * 1000.0).abs() < 50.0,
                 "{fit:?} for {tilt}"
             );
         }

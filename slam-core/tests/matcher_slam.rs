@@ -71,6 +71,7 @@ fn drive_matching(
     };
     let mut worst: f64 = 0.0;
     let mut walls = WallRate::default();
+    let mut turn = slam_core::wall_turn::WallTurn::default();
     for (counts, rate) in route() {
         truth = reference::odometry_tick(truth, Some((counts, 0)), Some(rate), DT_US, 100.0);
         let ranges_mm = reference::mat_scan(&truth);
@@ -88,7 +89,7 @@ fn drive_matching(
             while !slam.search_match(pieces) {}
             report = slam.finish_match(report);
         }
-        report = slam.measure_walls(&mut walls, &frame, report);
+        report = slam.measure_walls(&mut walls, &mut turn, &frame, report);
         reports.push(report);
         let p = report.pose;
         let error = (p.x_um as f64 - truth.x_um).hypot(p.y_um as f64 - truth.y_um) / 1000.0;

@@ -23,6 +23,9 @@ const FLOW_SCALE_MAX: i32 = 19_661;
 
 /// The heading's deviation after [`Estimator::forget_heading`], millidegrees.
 pub const FORGOTTEN_HEADING_MDEG: i64 = 2_000;
+/// The heading's least deviation after [`Estimator::heading_set_by_walls`], millidegrees:
+/// a wall's tilt, fitted twice, errs by a few tenths of a degree.
+pub const WALL_TURN_SD_MDEG: i64 = 1_000;
 /// The position's deviation within which the filter is sure enough of it to forget its
 /// heading ([`Estimator::forget_heading`]), millimetres.
 pub const SURE_POSITION_MM: i64 = 20;
@@ -318,6 +321,18 @@ impl Estimator {
         self.settle_fully = SETTLED_FULLY_AFTER_FORGETTING;
         self.ungated = true;
         true
+    }
+
+    /// Takes a heading set from outside the filter's updates (the walls' turn in place of
+    /// a gyro found lying, [`crate::wall_turn`]): the heading's correlations are dropped
+    /// and its deviation raised to at least `WALL_TURN_SD_MDEG`, so that the correction is
+    /// not learned as a gyro error and later sightings and matches may still move it.
+    pub fn heading_set_by_walls(&mut self) {
+        self.p.forget(
+            State::Heading,
+            square(units::heading_from_mdeg(WALL_TURN_SD_MDEG)),
+        );
+        self.settle();
     }
 
     /// Adds a correction, in fine units, to the calibration, within its limits.

@@ -1,0 +1,259 @@
+//! The gyro against the walls: a turn the depth sensor does not see.
+//!
+//! A gyro whose bias jumps while the robot drives straight reads a slow turn that two
+//! wheels off their command could have made, so the motors' commands cannot catch it
+//! ([`crate::commanded`]); with no tag in view nothing else would, and the map is drawn
+//! turned from then on. A flat wall in the fan can: its normal's bearing from the nose
+//! ([`WallFit::tilt`]) falls by exactly as much as the robot turns clockwise, however it
+//! drives. So while no turn is commanded (a scan's moment and its tick's then differ by
+//! no turn) each tick on one wall gives the wall's tilt plus the gyro's turn since the
+//! wall was first fitted, which stays put unless the gyro turns where the robot does
+//! not. The newest [`WINDOW`] ticks' mean is held to the first ticks' mean; more than
+//! [`TURN_LIMIT_MDEG`] apart on [`TICKS_TO_DOUBT`] ticks running and the gyro is doubted,
+//! and the walls say by how much its turn was wrong.
+//!
+//! The fits' noise sets the limits: a wall at least [`NEAREST_WALL_MM`] away, fitted to
+//! [`FEWEST_ENDS`] ends within [`MOST_STRAY_MM`] of their line, has its tilt within a few
+//! tenths of a degree a tick. Another wall coming into the fan (a box's side, a corner)
+//! moves the fitted tilt or distance at once, where a lying gyro moves the estimate a
+//! few tenths of a degree a tick: such a tick starts again from the new wall.
+
+use crate::angle::Angle;
+use crate::wall_rate::WallFit;
+
+/// How far the walls' turn and the gyro's may part before the gyro is doubted,
+/// millidegrees.
+pub const TURN_LIMIT_MDEG: i32 = 1_500;
+
+/// How many ticks' fits are averaged on each side of the comparison: the first ticks on
+/// a wall against the newest.
+pub const WINDOW: usize = 5;
+
+/// How many ticks running they must part by [`TURN_LIMIT_MDEG`].
+pub const TICKS_TO_DOUBT: u8 = 2;
+
+/// How far a wall's fitted tilt may move in a tick beyond what the gyro turned, and its
+/// distance move, and still be the same wall.
+const SAME_WALL_MDEG: i32 = 3_000;
+const SAME_WALL_MM: i32 = 60;
+
+/// The nearest wall held to the gyro, millimetres: nearer, the fan's ends span too
+/// little of it for its tilt to be known within a degree.
+pub const NEAREST_WALL_MM: i32 = 800;
+
+/// The fewest ends of a wall held to the gyro.
+pub const FEWEST_ENDS: u8 = 7;
+
+/// The most a wall's ends may stray from their line (root mean square, millimetres) for
+/// it to be held to the gyro: a fit the wall-rate check takes may hold ends of two
+/// surfaces a few millimetres apart, which tilt it by degrees.
+pub const MOST_STRAY_MM: u16 = 7;
+
+/// The wall the check is holding the gyro to. Each tick on it gives the wall's tilt
+/// since its first fit plus the gyro's turn since, millidegrees: the same on every
+/// tick, but for the fits' noise, while the gyro turns as the robot does.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+struct Reference {
+    first_tilt: Angle,
+    last_tilt: Angle,
+    last_mm: i32,
+    /// The gyro's turn since the first fit, nanodegrees clockwise.
+    gyro_turn_ndeg: i64,
+    /// Ticks on this wall.
+    ticks: u32,
+    /// The sum of the first [`WINDOW`] ticks' values, and the newest ticks' in a ring.
+    first_sum: i32,
+    newest: [i32; WINDOW],
+}
+
+impl Reference {
+    fn at(wall: &WallFit) -> Reference {
+        Reference {
+            first_tilt: wall.tilt,
+            last_tilt: wall.tilt,
+            last_mm: wall.distance_mm,
+            gyro_turn_ndeg: 0,
+            ticks: 1,
+            first_sum: 0,
+            newest: [0; WINDOW],
+        }
+    }
+}
+
+/// The check's state across ticks (the caller's, beside [`crate::wall_rate::WallRate`]).
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+pub struct WallTurn {
+    /// Times the gyro was found turning where the walls did not.
+    pub found: u32,
+    reference: Option<Reference>,
+    /// Ticks running the walls and the gyro have parted.
+    parted: u8,
+}
+
+/// The gyro's turn over a tick, nanodegrees clockwise, from its (calibrated) rate in
+/// millidegrees a second over `dt_us`.
+pub fn gyro_turn_ndeg(rate_mdps: i32, dt_us: u32) -> i64 {
+    i64::from(rate_mdps) * i64::from(dt_us)
+}
+
+impl WallTurn {
+    /// No wall held (for a `static`).
+    pub const fn new() -> WallTurn {
+        WallTurn {
+            found: 0,
+            reference: None,
+            parted: 0,
+        }
+    }
+
+    /// Forgets the wall held, keeping the count.
+    fn start(&mut self, wall: Option<&WallFit>) {
+        self.reference = wall.map(Reference::at);
+        self.parted = 0;
+    }
+
+    /// Takes a tick: `wall`, fitted to its scan, and `gyro_ndeg`, the gyro's turn over it;
+    /// either `None` when the tick cannot be checked (no wall, a gyro or a depth sensor
+    /// already doubted, a turn commanded). Returns how much further clockwise the gyro
+    /// turned than the walls (the newest ticks' mean against the first ticks') once they
+    /// have parted on [`TICKS_TO_DOUBT`] ticks running; the check then starts again from
+    /// this tick's wall.
+    pub fn observe(&mut self, wall: Option<WallFit>, gyro_ndeg: Option<i64>) -> Option<Angle> {
+        let wall = wall.filter(|w| {
+            w.distance_mm >= NEAREST_WALL_MM && w.ends >= FEWEST_ENDS && w.stray_mm <= MOST_STRAY_MM
+        });
+        let (Some(wall), Some(turn)) = (wall, gyro_ndeg) else {
+            self.start(None);
+            return None;
+        };
+        let Some(mut reference) = self.reference else {
+            self.start(Some(&wall));
+            return None;
+        };
+        // The tilt falls as the robot turns clockwise: the tilt's change with the gyro's
+        // turn added back is the walls' disagreement.
+        let tick_turn = Angle::from_millidegrees(turn / 1_000_000);
+        let step = wall.tilt.wrapping_add(tick_turn) - reference.last_tilt;
+        let same_wall = step.to_millidegrees().abs() <= SAME_WALL_MDEG
+            && (wall.distance_mm - reference.last_mm).abs() <= SAME_WALL_MM;
+        if !same_wall {
+            self.start(Some(&wall));
+            return None;
+        }
+        reference.gyro_turn_ndeg += turn;
+        reference.last_tilt = wall.tilt;
+        reference.last_mm = wall.distance_mm;
+        let gyro = Angle::from_millidegrees(reference.gyro_turn_ndeg / 1_000_000);
+        let value = (wall.tilt.wrapping_add(gyro) - reference.first_tilt).to_millidegrees();
+        // This tick's place among the ticks on the wall (the first fit's value is 0).
+        let index = reference.ticks as usize;
+        reference.newest[index % WINDOW] = value;
+        if index < WINDOW {
+            reference.first_sum += value;
+        }
+        reference.ticks = reference.ticks.wrapping_add(1);
+        self.reference = Some(reference);
+        if index < WINDOW {
+            return None;
+        }
+        let newest: i32 = reference.newest.iter().sum();
+        let first = reference.first_sum / WINDOW as i32;
+        let excess = newest / WINDOW as i32 - first;
+        if excess.abs() <= TURN_LIMIT_MDEG {
+            self.parted = 0;
+            return None;
+        }
+        self.parted += 1;
+        if self.parted < TICKS_TO_DOUBT {
+            return None;
+        }
+        // What the gyro turned past the walls by now: the newest two ticks' mean, which
+        // lags the newest less than the window's.
+        let before = reference.newest[(index + WINDOW - 1) % WINDOW];
+        let now = (value + before) / 2 - first;
+        self.start(Some(&wall));
+        self.found += 1;
+        Some(Angle::from_millidegrees(now.into()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn wall(distance_mm: i32, tilt_mdeg: i64) -> Option<WallFit> {
+        Some(WallFit {
+            distance_mm,
+            cos_q16: 65_536,
+            tilt: Angle::from_millidegrees(tilt_mdeg),
+            ends: 8,
+            stray_mm: 5,
+        })
+    }
+
+    /// A tick of 100 ms at `mdps`.
+    fn turn(mdps: i32) -> Option<i64> {
+        Some(gyro_turn_ndeg(mdps, 100_000))
+    }
+
+    #[test]
+    fn a_turn_the_walls_show_agrees() {
+        let mut check = WallTurn::new();
+        // Turning clockwise at 10 deg/s: the wall's tilt falls 1 degree a tick.
+        for tick in 0..20 {
+            assert_eq!(
+                check.observe(wall(1000, 10_000 - tick * 1_000), turn(10_000)),
+                None
+            );
+        }
+    }
+
+    #[test]
+    fn a_turn_the_walls_do_not_show_is_the_gyros() {
+        let mut check = WallTurn::new();
+        // Driving straight at a wall 10 degrees off square; the gyro reads 3 deg/s.
+        let mut found = None;
+        let mut ticks = 0;
+        while found.is_none() && ticks < 30 {
+            found = check.observe(wall(1500 - ticks * 10, 10_000), turn(3_000));
+            ticks += 1;
+        }
+        let excess = found.expect("the bias is found").to_millidegrees();
+        // 0.3 degrees a tick from the first fit: the first five ticks' mean is 0.6, and
+        // the newest five's passes it by 1.5 degrees ten ticks after the first (1.8) and
+        // again on the eleventh, whose newest two ticks' mean is 3.15: 2.55 past the
+        // first five's.
+        assert_eq!(ticks, 12);
+        assert!((2_500..=2_600).contains(&excess), "{excess}");
+        // The gyro read anticlockwise: the excess is anticlockwise.
+        let mut check = WallTurn::new();
+        let found = (0..30).find_map(|_| check.observe(wall(1500, 0), turn(-3_000)));
+        assert!(found.is_some_and(|a| a.to_millidegrees() < -1_500));
+    }
+
+    #[test]
+    fn another_wall_or_a_tick_unchecked_starts_again() {
+        let mut check = WallTurn::new();
+        for tick in 0..40 {
+            // The fan moves from one wall to another every 4 ticks: a leap of tilt, or
+            // of distance; or the tick cannot be checked.
+            let w = match tick % 12 {
+                0..=3 => wall(1000, 0),
+                4..=7 => wall(1000, 5_000),
+                8..=10 => wall(1200, 5_000),
+                _ => None,
+            };
+            assert_eq!(check.observe(w, turn(2_000)), None, "tick {tick}");
+        }
+        // One fit thrown off is not enough.
+        let mut check = WallTurn::new();
+        for tick in 0..20 {
+            let tilt = if tick == 10 { 2_000 } else { 0 };
+            assert_eq!(
+                check.observe(wall(1000, tilt), turn(0)),
+                None,
+                "tick {tick}"
+            );
+        }
+    }
+}
