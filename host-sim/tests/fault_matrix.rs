@@ -225,34 +225,35 @@ fn a_gyro_bias_jump_hidden_from_the_check_is_recovered_from_by_the_tags() {
     }
 }
 
-/// In the two-wall room from 55 s the robot drives along its top wall, no tag in view
-/// for the rest of the route, when the gyro's bias jumps 3 deg/s: within what two wheels
-/// off their command may turn a drive, so the commands cannot catch it, and before the
-/// wall check it drew the rest of the route 9 degrees turned (55 cells added, every seed
-/// ending 18-20 cm off). The wall ahead does not turn with the gyro
+/// In the two-wall room from 55 s the robot drives along its top wall, and from 70 s down
+/// its left side to the bottom wall, no tag in view for the rest of the route, when the
+/// gyro's bias jumps 3 deg/s: within what two wheels off their command may turn a drive,
+/// so the commands cannot catch it, and before the wall check it drew the rest of the
+/// route 9 degrees turned (58 and 34 cells added under `filter`, every seed 18-20 cm off
+/// at the end from 55 s). The wall ahead does not turn with the gyro
 /// (`slam_core::wall_turn`): the gyro is doubted, the route held and the heading turned
-/// back. No cell added, and within a centimetre of the run without the fault 2 s after
-/// the gyro returns, under `filter` and `slam`.
+/// back. Every target met, under `filter` and `slam`.
 #[test]
 fn a_gyro_bias_jump_mid_drive_in_the_dark_is_caught_by_the_wall_ahead() {
     let scenario = world::shipped::scenario("two-wall-room.toml");
     let seeds: Vec<u64> = (1..=20).collect();
-    let window = Window {
-        start_s: 55.0,
-        duration_s: 3.0,
-    };
-    for pose in [PoseMode::Filter, PoseMode::Slam] {
-        let cases =
-            run_matrix(&scenario, pose, &seeds, window, Some("gyro-wrong")).expect("matrix");
-        let [case] = cases.as_slice() else {
-            panic!("one case: {}", table(&cases))
+    for start_s in [55.0, 70.0] {
+        let window = Window {
+            start_s,
+            duration_s: 3.0,
         };
-        assert_eq!((case.seeds, case.panics), (20, 0), "{}", table(&cases));
-        assert_eq!(case.out_of_place_added, 0, "{pose:?}: {}", table(&cases));
-        assert!(
-            case.excess_error_cm <= host_sim::fault_matrix::RECOVERED_CM,
-            "{pose:?}: {}",
-            table(&cases)
-        );
+        for pose in [PoseMode::Filter, PoseMode::Slam] {
+            let cases =
+                run_matrix(&scenario, pose, &seeds, window, Some("gyro-wrong")).expect("matrix");
+            let [case] = cases.as_slice() else {
+                panic!("one case: {}", table(&cases))
+            };
+            assert_eq!((case.seeds, case.panics), (20, 0), "{}", table(&cases));
+            assert!(
+                case.meets_targets(),
+                "{pose:?} from {start_s} s: {}",
+                table(&cases)
+            );
+        }
     }
 }

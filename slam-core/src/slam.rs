@@ -974,13 +974,32 @@ impl<const W: usize, const H: usize> Slam<W, H> {
     /// walls' ([`crate::wall_turn`]): checked when no turn was commanded of late and the
     /// gyro and the depth sensor are trusted. A gyro the walls part from is doubted, and
     /// the heading turned back by as much as it turned past them, the filter's heading
-    /// taken as set from outside ([`Estimator::heading_set_by_walls`]). Only with the
-    /// filter. Returns whether the gyro was found out.
+    /// taken as set from outside ([`Estimator::heading_set_by_walls`]); while the robot
+    /// is then held, the wall's tilt averaged turns it back again, more exactly
+    /// ([`Estimator::heading_pinned_by_walls`]). Only with the filter. Returns whether
+    /// the heading was turned.
     #[cfg(feature = "matching")]
     #[inline(never)]
     fn wall_turn_tick(&mut self, turn: &mut WallTurn, frame: &SensorFrame, trust: Trust) -> bool {
         if self.config.localiser != Localiser::Filter {
             return false;
+        }
+        if turn.holding() {
+            let wall = match &frame.depth {
+                Some(scan) if trust.depth.is_none() => {
+                    fit_wall(scan, &self.config.depth.beam_angles)
+                }
+                _ => None,
+            };
+            let doubted = trust.gyro == Some(crate::Doubt::UnseenTurn);
+            if let Some(further) = turn.held(wall, doubted) {
+                self.turn_back(further);
+                self.estimator.heading_pinned_by_walls();
+                return true;
+            }
+            if turn.holding() {
+                return false;
+            }
         }
         let checked = trust.gyro.is_none()
             && trust.depth.is_none()
@@ -997,14 +1016,21 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             return false;
         };
         self.plausibility.doubt_gyro(crate::Doubt::UnseenTurn);
+        self.turn_back(excess);
+        true
+    }
+
+    /// Turns the heading, and the past with it, back anticlockwise by `turn`: the gyro's
+    /// turn past the walls. The filter takes the heading as set from outside.
+    #[cfg(feature = "matching")]
+    fn turn_back(&mut self, turn: Angle) {
         let then = self.pose;
         let corrected = Pose {
-            heading: then.heading - excess,
+            heading: then.heading - turn,
             ..then
         };
         self.carry_past(&RigidMotion::carrying(&then, &corrected));
         self.estimator.heading_set_by_walls();
-        true
     }
 
     /// The drive at a wall takes this tick, whose inputs `step` trusted as `trust`: a

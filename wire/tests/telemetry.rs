@@ -381,7 +381,7 @@ fn inputs_frame_fixture() {
     let raw = [0xBA, 5, 1, 2, 3, 0, 0, 0, 0, 8, 0, 0, 0, 0];
     assert_eq!(frame(&m), sealed(&raw));
     assert_eq!(decode_all(&sealed(&raw)).0, std::vec![Ok(m)]);
-    let raw = [0xBA, 5, 1, 2, 3, 0, 0, 0, 0, 9, 0, 0, 0, 0];
+    let raw = [0xBA, 5, 1, 2, 3, 0, 0, 0, 0, 10, 0, 0, 0, 0];
     assert_eq!(
         decode_all(&sealed(&raw)).0,
         std::vec![Err(FrameError::Body)]

@@ -623,6 +623,13 @@ impl Covariance {
         self.m[i][i] = self.m[i][i].max(clamp32(variance));
     }
 
+    /// Forgets state `i`'s correlations and sets its variance to `variance` (clamped to
+    /// 32 bits, at least 1): definite still, as after [`Covariance::forget`].
+    pub fn replace(&mut self, i: State, variance: i64) {
+        self.forget(i, 0);
+        self.m[i as usize][i as usize] = clamp32(variance).max(1);
+    }
+
     /// Scales row and column `i` by `sqrt(ceiling / P_ii)` so that `P_ii` is `ceiling`.
     #[cold]
     fn scale_down(&mut self, i: usize, ceiling: i32) {

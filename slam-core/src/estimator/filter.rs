@@ -26,6 +26,9 @@ pub const FORGOTTEN_HEADING_MDEG: i64 = 2_000;
 /// The heading's least deviation after [`Estimator::heading_set_by_walls`], millidegrees:
 /// a wall's tilt, fitted twice, errs by a few tenths of a degree.
 pub const WALL_TURN_SD_MDEG: i64 = 1_000;
+/// The heading's deviation after [`Estimator::heading_pinned_by_walls`], millidegrees:
+/// the wall's first ticks' mean and its mean while the robot stood.
+pub const WALL_HELD_SD_MDEG: i64 = 500;
 /// The position's deviation within which the filter is sure enough of it to forget its
 /// heading ([`Estimator::forget_heading`]), millimetres.
 pub const SURE_POSITION_MM: i64 = 20;
@@ -331,6 +334,18 @@ impl Estimator {
         self.p.forget(
             State::Heading,
             square(units::heading_from_mdeg(WALL_TURN_SD_MDEG)),
+        );
+        self.settle();
+    }
+
+    /// Takes a heading the walls pinned while the robot stood (their tilt averaged, the
+    /// gyro found lying, [`crate::wall_turn::WallTurn::held`]): its correlations dropped and
+    /// its deviation set to `WALL_HELD_SD_MDEG`, narrower than after the first turn back,
+    /// so that matches against a map drawn as the gyro's error grew do not pull it off.
+    pub fn heading_pinned_by_walls(&mut self) {
+        self.p.replace(
+            State::Heading,
+            square(units::heading_from_mdeg(WALL_HELD_SD_MDEG)),
         );
         self.settle();
     }
