@@ -1017,11 +1017,12 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         };
         self.plausibility.doubt_gyro(crate::Doubt::UnseenTurn);
         self.turn_back(excess);
+        self.estimator.heading_set_by_walls();
         true
     }
 
     /// Turns the heading, and the past with it, back anticlockwise by `turn`: the gyro's
-    /// turn past the walls. The filter takes the heading as set from outside.
+    /// turn past the walls. The caller tells the filter how sure of the heading to be.
     #[cfg(feature = "matching")]
     fn turn_back(&mut self, turn: Angle) {
         let then = self.pose;
@@ -1030,7 +1031,6 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             ..then
         };
         self.carry_past(&RigidMotion::carrying(&then, &corrected));
-        self.estimator.heading_set_by_walls();
     }
 
     /// The drive at a wall takes this tick, whose inputs `step` trusted as `trust`: a
