@@ -4,7 +4,7 @@
 
 use host_sim::run::slam_config;
 use host_sim::{run, PoseMode};
-use slam_core::wall_rate::{FlowScale, WallRate};
+use slam_core::wall_rate::{fit_wall, FlowScale, WallRate};
 use slam_core::Trust;
 use world::shipped::scenario;
 
@@ -44,7 +44,11 @@ fn drives(name: &str) -> (Vec<FlowScale>, f64) {
             judged.extend(rate.observe(
                 f,
                 config.odometry.flow_um_per_count_q16,
-                &config.depth.beam_angles,
+                || {
+                    f.depth
+                        .as_ref()
+                        .and_then(|s| fit_wall(s, &config.depth.beam_angles))
+                },
                 &Trust::default(),
             ));
         }

@@ -23,7 +23,7 @@ use crate::tagfix::{self, CameraConfig, FixConfig, FixOutcome, FixRejection, Kno
 use crate::wall_rate::WallRate;
 #[cfg(feature = "matching")]
 use crate::{
-    wall_rate::fit_wall,
+    wall_rate::{fit_wall, WallFit},
     wall_turn::{self, WallTurn},
 };
 
@@ -960,8 +960,13 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         frame: &SensorFrame,
         report: StepReport,
     ) -> StepReport {
-        let turned = self.wall_turn_tick(turn, frame, report.trust);
-        if !self.wall_tick(walls, frame, report.trust) && !turned {
+        // The frame's wall, fitted at most once for both.
+        let fitted = core::cell::OnceCell::new();
+        let angles = self.config.depth.beam_angles;
+        let wall =
+            || *fitted.get_or_init(|| frame.depth.as_ref().and_then(|s| fit_wall(s, &angles)));
+        let turned = self.wall_turn_tick(turn, frame, report.trust, &wall);
+        if !self.wall_tick(walls, frame, report.trust, &wall) && !turned {
             return report;
         }
         StepReport {
@@ -980,17 +985,18 @@ impl<const W: usize, const H: usize> Slam<W, H> {
     /// the heading was turned.
     #[cfg(feature = "matching")]
     #[inline(never)]
-    fn wall_turn_tick(&mut self, turn: &mut WallTurn, frame: &SensorFrame, trust: Trust) -> bool {
+    fn wall_turn_tick(
+        &mut self,
+        turn: &mut WallTurn,
+        frame: &SensorFrame,
+        trust: Trust,
+        wall: &impl Fn() -> Option<WallFit>,
+    ) -> bool {
         if self.config.localiser != Localiser::Filter {
             return false;
         }
         if turn.holding() {
-            let wall = match &frame.depth {
-                Some(scan) if trust.depth.is_none() => {
-                    fit_wall(scan, &self.config.depth.beam_angles)
-                }
-                _ => None,
-            };
+            let wall = if trust.depth.is_none() { wall() } else { None };
             let doubted = trust.gyro == Some(crate::Doubt::UnseenTurn);
             if let Some(further) = turn.held(wall, doubted) {
                 self.turn_back(further);
@@ -1008,10 +1014,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             let g = self.estimator.correct_gyro(g);
             wall_turn::gyro_turn_ndeg(g.rate_mdps, frame.dt_us)
         });
-        let wall = match (&frame.depth, gyro) {
-            (Some(scan), Some(_)) => fit_wall(scan, &self.config.depth.beam_angles),
-            _ => None,
-        };
+        let wall = if gyro.is_some() { wall() } else { None };
         let Some(excess) = turn.observe(wall, gyro) else {
             return false;
         };
@@ -1040,14 +1043,20 @@ impl<const W: usize, const H: usize> Slam<W, H> {
     /// step. Only with matching on. Returns whether the filter took a measurement.
     #[cfg(feature = "matching")]
     #[inline(never)]
-    fn wall_tick(&mut self, walls: &mut WallRate, frame: &SensorFrame, trust: Trust) -> bool {
+    fn wall_tick(
+        &mut self,
+        walls: &mut WallRate,
+        frame: &SensorFrame,
+        trust: Trust,
+        wall: &impl Fn() -> Option<WallFit>,
+    ) -> bool {
         if self.config.matching.is_none() || self.config.localiser != Localiser::Filter {
             return false;
         }
         let Some(measured) = walls.observe(
             frame,
             self.config.odometry.flow_um_per_count_q16,
-            &self.config.depth.beam_angles,
+            wall,
             &trust,
         ) else {
             return false;

@@ -245,13 +245,14 @@ const MAX_TICKS: u32 = 600;
 impl WallRate {
     /// Takes a tick of `frame`, of the inputs `trust` does not doubt: the flow's nominal
     /// distance (`flow_um_per_count_q16`, its calibration not applied) and, driving
-    /// straight (the gyro's rate under [`STRAIGHT_MDPS`]), the wall fitted to its scan; as
-    /// [`WallRate::tick`].
+    /// straight (the gyro's rate under [`STRAIGHT_MDPS`]), the wall fitted to its scan
+    /// (`fitted`: [`fit_wall`] of the frame's scan, asked for only then, so that a caller
+    /// that fits it for another check too fits it once); as [`WallRate::tick`].
     pub fn observe(
         &mut self,
         frame: &SensorFrame,
         flow_um_per_count_q16: i32,
-        beam_angles: &[Angle; BEAMS],
+        fitted: impl FnOnce() -> Option<WallFit>,
         trust: &Trust,
     ) -> Option<FlowScale> {
         let straight = trust.gyro.is_none()
@@ -264,7 +265,7 @@ impl WallRate {
             .filter(|_| trust.flow.is_none())
             .map(|f| (i64::from(f.forward_counts) * per_count) >> 16);
         let wall = match (straight, forward, &frame.depth) {
-            (true, Some(_), Some(scan)) if trust.depth.is_none() => fit_wall(scan, beam_angles),
+            (true, Some(_), Some(_)) if trust.depth.is_none() => fitted(),
             _ => None,
         };
         let forward_um = forward.map_or(0, |f| f.clamp(i32::MIN.into(), i32::MAX.into()) as i32);

@@ -161,12 +161,14 @@ impl WallTurn {
         self.parted = 0;
     }
 
-    /// Takes a tick: `wall`, fitted to its scan, and `gyro_ndeg`, the gyro's turn over it;
-    /// either `None` when the tick cannot be checked (no wall, a gyro or a depth sensor
-    /// already doubted, a turn commanded). Returns how much further clockwise the gyro
-    /// turned than the walls (the newest ticks' mean against the first ticks') once they
-    /// have parted on [`TICKS_TO_DOUBT`] ticks running; the check then starts again from
-    /// this tick's wall.
+    /// Takes a tick: `wall`, fitted to its scan (`None`: no fit, or the depth sensor
+    /// doubted; the wall held is kept for up to five such ticks running), and
+    /// `gyro_ndeg`, the gyro's turn over it (`None` when the gyro cannot be checked: a
+    /// doubt, a turn commanded; the check starts again). Returns how much further
+    /// clockwise the gyro turned than the walls (the newest ticks' mean against the first
+    /// ticks') once they have parted on [`TICKS_TO_DOUBT`] ticks running; the check then
+    /// waits for the robot to stand ([`WallTurn::held`]) and starts again from the next
+    /// wall.
     pub fn observe(&mut self, wall: Option<WallFit>, gyro_ndeg: Option<i64>) -> Option<Angle> {
         self.held = None;
         let wall = wall.filter(fits_well);
