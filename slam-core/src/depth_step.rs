@@ -9,7 +9,8 @@
 //! reads and drives a few millimetres, so each zone of the new scan looks where the old
 //! scan's zones, turned by that much, looked: its range is predicted by interpolating the
 //! two old zones around it. A wall seen at a slant, a corner or a box's edge moves some
-//! zones and not others; an offset in the sensor moves all of them, the same way, at once.
+//! zones and not others; an offset in the sensor moves all of them, the same way, at once
+//! (all but one by the whole offset: the zone at an edge is the worst predicted).
 //!
 //! The check runs where each frame arrives, before the SLAM tick takes it (the firmware's
 //! depth task; host-sim's loop), with the gyro's own integral as the heading, so it sees
@@ -42,8 +43,8 @@ use crate::plausible::{check_depth, Doubt, PlausibleConfig};
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct DepthStepConfig {
-    /// Least change from its predicted range that every compared zone must show, the
-    /// same way, millimetres.
+    /// Least change from its predicted range that every compared zone but one must show,
+    /// the same way, millimetres (that one at least half of it).
     pub min_step_mm: u16,
     /// Fewest zones compared (a return in the new scan and in both old zones around it)
     /// for a step to be called or a frame's fit judged.
@@ -102,7 +103,8 @@ impl ZoneTurn {
 /// the fan having turned `shift` zones (in [`ZoneTurn::SHIFT_ONE`]ths, positive
 /// clockwise as the gyro reads) between them: the mean change, millimetres, when at least
 /// [`DepthStepConfig::min_zones`] zones were compared and all changed the same way by
-/// [`DepthStepConfig::min_step_mm`] or more; `None` otherwise.
+/// [`DepthStepConfig::min_step_mm`] or more, but one by at least half of it; `None`
+/// otherwise.
 pub fn step(
     before: &DepthScan,
     now: &DepthScan,
@@ -122,6 +124,7 @@ fn compare(
 ) -> Option<Option<i32>> {
     let least = i32::from(config.min_step_mm);
     let (mut compared, mut up, mut down, mut sum) = (0u8, 0u8, 0u8, 0i32);
+    let (mut up_half, mut down_half) = (0u8, 0u8);
     for i in 0..BEAMS {
         let Some(change) = change(before, now, i, shift) else {
             continue;
@@ -129,9 +132,14 @@ fn compare(
         compared += 1;
         up += u8::from(change >= least);
         down += u8::from(change <= -least);
+        up_half += u8::from(change >= least / 2);
+        down_half += u8::from(change <= -least / 2);
         sum += change;
     }
-    let together = up == compared || down == compared;
+    // Every zone the same way by half a step, and all but one by a whole step: a zone
+    // at a box's edge or a slant is predicted worst, and may show less of it.
+    let whole = |n: u8| n >= compared.saturating_sub(1);
+    let together = (up_half == compared && whole(up)) || (down_half == compared && whole(down));
     (compared >= config.min_zones).then(|| together.then(|| sum / i32::from(compared)))
 }
 
@@ -444,6 +452,22 @@ mod tests {
         assert_eq!(step(&before, &scan([940; BEAMS]), 0, &C), None);
         // Every zone 80 mm shorter: a step.
         assert_eq!(step(&before, &scan([920; BEAMS]), 0, &C), Some(-80));
+    }
+
+    #[test]
+    fn one_zone_at_an_edge_showing_less_of_a_step_still_shows_it() {
+        let before = scan([1_000; BEAMS]);
+        // Every zone 150 mm longer but one, at an edge, 70 mm: a step (the last zone has
+        // no old pair around it to compare with).
+        let mut now = scan([1_150; BEAMS]);
+        now.ranges_mm[4] = Some(1_070);
+        assert_eq!(step(&before, &now, 0, &C), Some((6 * 150 + 70) / 7));
+        // That zone the other way, or two short of the step: the world.
+        now.ranges_mm[4] = Some(990);
+        assert_eq!(step(&before, &now, 0, &C), None);
+        now.ranges_mm[4] = Some(1_070);
+        now.ranges_mm[5] = Some(1_070);
+        assert_eq!(step(&before, &now, 0, &C), None);
     }
 
     #[test]
