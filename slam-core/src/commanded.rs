@@ -124,6 +124,12 @@ impl RecentCommands {
         first.is_some() && rest.iter().all(|c| c == first)
     }
 
+    /// The newest command, if known.
+    pub fn newest(&self) -> Option<DriveCommand> {
+        let newest = (usize::from(self.next) + COMMAND_FRAMES - 1) % COMMAND_FRAMES;
+        self.slots.get(newest).copied().flatten()
+    }
+
     /// Whether any of the last commands turned the robot; `None` unless all are known.
     pub fn turning(&self) -> Option<bool> {
         self.bounds.map(|(low, high, _)| low != 0 || high != 0)

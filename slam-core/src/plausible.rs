@@ -413,10 +413,10 @@ pub struct Plausibility {
     flow_repeats: Repeats<FlowDelta>,
     /// Whether a tag's distance agreed with the last tick's scan.
     depth_vouched: bool,
-    /// The newest trusted readings taken while the robot was not held, to stand in for
-    /// the tick a doubt begins.
-    moving_gyro: Option<GyroRate>,
-    moving_flow: Option<FlowDelta>,
+    /// The newest trusted readings taken while the robot was not held, each with the
+    /// command then in force, to stand in for the tick a doubt begins.
+    moving_gyro: Option<(GyroRate, Option<DriveCommand>)>,
+    moving_flow: Option<(FlowDelta, Option<DriveCommand>)>,
     /// The motors' last commands, to check the gyro against.
     commands: RecentCommands,
 }
@@ -519,12 +519,20 @@ impl Plausibility {
 
         let trust = self.trust();
         let commands = &self.commands;
-        let gyro = known(gyro, trust.gyro, turn_held, commands, &mut self.moving_gyro);
+        let gyro = known(
+            gyro,
+            trust.gyro,
+            turn_held,
+            commands,
+            |c| c.turn_mdps == 0,
+            &mut self.moving_gyro,
+        );
         let flow = known(
             flow,
             trust.flow,
             drive_held,
             commands,
+            |c| c.speed_mm_s == 0,
             &mut self.moving_flow,
         );
         Judged { gyro, flow, trust }
@@ -534,20 +542,23 @@ impl Plausibility {
 /// What to integrate of an input: its reading when trusted (or absent unheard: lost);
 /// when doubted, still if the robot was held, else the reading of the last trusted tick
 /// on which it was not held: a held motion resumes as it was when it stopped. That
-/// reading is as good as one while the `commands` are steady; when they changed of late
-/// (a turn ending, a drive beginning) it only stands in.
+/// reading is as good as one while the `commands` are steady and the same as when it was
+/// read; when they changed of late (a turn ending, a drive beginning) it only stands in.
+/// Steady at a command that does not move the robot this way (`idle`: a turn on the spot
+/// for the flow), the robot is still this way, whatever the reading was.
 #[inline(never)]
 fn known<T: Copy>(
     reading: Option<T>,
     doubt: Option<Doubt>,
     held: bool,
     commands: &RecentCommands,
-    moving: &mut Option<T>,
+    idle: impl Fn(&DriveCommand) -> bool,
+    moving: &mut Option<(T, Option<DriveCommand>)>,
 ) -> Known<T> {
     match (doubt, reading) {
         (None, Some(r)) => {
             if !held {
-                *moving = Some(r);
+                *moving = Some((r, commands.newest()));
             }
             Known::Read(r)
         }
@@ -555,8 +566,12 @@ fn known<T: Copy>(
         (Some(_), _) if held => Known::Still,
         (Some(_), _) => match *moving {
             None => Known::Lost,
-            Some(r) if commands.steady() => Known::Read(r),
-            Some(r) => Known::StandIn(r),
+            Some((r, then)) if commands.steady() => match commands.newest() {
+                now if now == then => Known::Read(r),
+                Some(now) if idle(&now) => Known::Still,
+                _ => Known::StandIn(r),
+            },
+            Some((r, _)) => Known::StandIn(r),
         },
     }
 }
@@ -746,6 +761,41 @@ mod tests {
         // And with the commands not known.
         let lost = turning().judge(None, None, None, None, &C);
         assert_eq!(lost.gyro, Known::StandIn(rate(31_500)));
+    }
+
+    #[test]
+    fn a_reading_from_another_command_is_not_one_for_this() {
+        let turn = DriveCommand {
+            speed_mm_s: 0,
+            turn_mdps: 31_500,
+        };
+        let drive = DriveCommand {
+            speed_mm_s: 86,
+            turn_mdps: 0,
+        };
+        let mut p = Plausibility::default();
+        // Readings as noisy as a real sensor's: one repeated bit for bit is stuck.
+        for i in 0..4 {
+            p.judge(Some(rate(i)), Some(flow(86 - i, 0)), None, Some(drive), &C);
+        }
+        // The flow drops out as the drive ends and the turn on the spot begins; its
+        // readings in the turn are trusted again while the robot is still held for it,
+        // so none of them is the newest taken while moving...
+        p.judge(Some(rate(0)), None, None, Some(drive), &C);
+        for i in 0..3 {
+            p.judge(
+                Some(rate(31_500 + i)),
+                Some(flow(1 - i, 0)),
+                None,
+                Some(turn),
+                &C,
+            );
+        }
+        // ...and when it is lost again in the steady turn, the last drive's counts are
+        // not this tick's: the turn's commands say the robot does not drive.
+        let lost = p.judge(Some(rate(31_490)), None, None, Some(turn), &C);
+        assert!(lost.trust.flow.is_some());
+        assert_eq!(lost.flow, Known::Still);
     }
 
     #[test]
