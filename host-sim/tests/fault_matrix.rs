@@ -86,7 +86,7 @@ const OTHER_WINDOWS: [(f64, &str, &[&str]); 9] = [
     (
         9.0,
         "the first turn's end, the tags coming back into view one at a time",
-        &["flow-slow", "camera-wrong"],
+        &["flow-slow"],
     ),
     (12.0, "driving up the mat towards the tags", &[]),
     (
@@ -102,7 +102,7 @@ const OTHER_WINDOWS: [(f64, &str, &[&str]); 9] = [
     (
         28.0,
         "the second turn's end, the tags coming into view, then the drive",
-        &["camera-wrong"],
+        &[],
     ),
     (
         36.0,

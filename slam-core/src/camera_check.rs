@@ -39,6 +39,11 @@ pub struct LeapLimit {
     pub range_mm: u32,
     /// And more for each tick since the last sighting taken.
     pub range_mm_per_tick: u32,
+    /// How far a tag's bearing innovation may move from the first refused sighting of it
+    /// in a run of refusals and still be the estimate's drift, millidegrees.
+    pub creep_mdeg: u32,
+    /// And more for each tick since that sighting.
+    pub creep_mdeg_per_tick: u32,
 }
 
 impl LeapLimit {
@@ -48,12 +53,17 @@ impl LeapLimit {
     /// second in a turn), and more than the 3 degrees a second of the bias jump that
     /// forgetting the heading recovers from when the command is not known. The range:
     /// 20 mm covers its noise at the camera's reach, and 20 mm a second is a quarter of
-    /// the drive's speed, far beyond the flow's scale error.
+    /// the drive's speed, far beyond the flow's scale error. Within a run, a heading
+    /// gone off holds a tag's innovation still but for the drift since (3.5 degrees a
+    /// second covers the 3 of the bias jump) and the camera's noise (a tenth of a degree;
+    /// 1.5 degrees covers a wider-angled camera's pixel).
     pub const SEED: LeapLimit = LeapLimit {
         bearing_mdeg: 3_000,
         bearing_mdeg_per_tick: 500,
         range_mm: 20,
         range_mm_per_tick: 2,
+        creep_mdeg: 1_500,
+        creep_mdeg_per_tick: 350,
     };
 }
 
@@ -66,6 +76,8 @@ pub struct CameraCheck {
     bearing_per_tick: i64,
     range: i64,
     range_per_tick: i64,
+    creep: i64,
+    creep_per_tick: i64,
     /// Fingerprints of the last pictures with sightings in them (0: none yet), and the
     /// tick of each; the newest at `newest`.
     prints: [u32; REMEMBERED],
@@ -80,7 +92,21 @@ pub struct CameraCheck {
     last_taken_tick: u32,
     /// The run of refused pictures since the last sighting taken.
     run: Run,
+    /// The run's first refused sighting: its tag and bearing innovation.
+    first: Option<(u16, i32)>,
+    /// How far the estimate's heading may have drifted since that sighting, in heading
+    /// units ([`CameraCheck::tick`]).
+    drift: i64,
+    /// The turn the last change of the commands made, over a tick in heading units, and
+    /// for how many more ticks a late gyro may still misread it.
+    unsteady: i64,
+    unsteady_ticks: u8,
 }
+
+/// How many ticks after the commands are steady again a gyro whose readings come late
+/// may still read the turn they changed (or not yet read it): as many as a camera
+/// behind is found out for (as far back as the pose history reaches).
+pub const LATE_GYRO_TICKS: u8 = REMEMBERED as u8;
 
 /// How many pictures [`CameraCheck`] remembers: a camera up to three ticks behind is
 /// found out, as far back as the pose history can place a picture a tick old
@@ -122,6 +148,8 @@ impl CameraCheck {
             bearing_per_tick: heading(limit.bearing_mdeg_per_tick),
             range: position(limit.range_mm),
             range_per_tick: position(limit.range_mm_per_tick),
+            creep: heading(limit.creep_mdeg),
+            creep_per_tick: heading(limit.creep_mdeg_per_tick),
             prints: [0; REMEMBERED],
             ticks: [0; REMEMBERED],
             newest: 0,
@@ -129,7 +157,41 @@ impl CameraCheck {
             guessed: false,
             last_taken_tick: 0,
             run: Run::None,
+            first: None,
+            drift: 0,
+            unsteady: 0,
+            unsteady_ticks: 0,
         }
+    }
+
+    /// A tick went by, `dt_us` long, with the commands' turn `unsteady_mdps` from steady
+    /// ([`RecentCommands::unsteady_turn_mdps`]; `None`: not known): how far the heading
+    /// may have drifted grows by [`LeapLimit::creep_mdeg_per_tick`], and by the turn a
+    /// gyro a few ticks late can misread while the commands change and for
+    /// [`LATE_GYRO_TICKS`] after. With the commands not known nothing bounds it.
+    ///
+    /// [`RecentCommands::unsteady_turn_mdps`]: crate::commanded::RecentCommands::unsteady_turn_mdps
+    pub fn tick(&mut self, unsteady_mdps: Option<u32>, dt_us: u32) {
+        let Some(mdps) = unsteady_mdps else {
+            self.drift = i64::MAX;
+            return;
+        };
+        if mdps > 0 {
+            // mdps x dt / 10^6 in shifts (the M0+ divides in software): dt / 1,024 is
+            // 2.3 % short of milliseconds, / 1,024 again 2.3 % short of thousandths, and
+            // a sixteenth more brings it within 2 %; 32 bits hold a turn of 1,048 deg/s
+            // over 4 s.
+            let ms = (dt_us >> 10).min(1 << 12);
+            let mdeg = (mdps.min(1 << 20) * ms) >> 10;
+            self.unsteady = units::heading_from_mdeg(i64::from(mdeg + (mdeg >> 4)));
+            self.unsteady_ticks = LATE_GYRO_TICKS + 1;
+        }
+        let mut grown = self.creep_per_tick;
+        if self.unsteady_ticks > 0 {
+            self.unsteady_ticks -= 1;
+            grown = grown.saturating_add(self.unsteady);
+        }
+        self.drift = self.drift.saturating_add(grown);
     }
 
     /// What the picture `tags`, taken in on tick `tick`, is: new, the last one again, or
@@ -170,7 +232,7 @@ impl CameraCheck {
     pub fn behind(&mut self, ticks: u32) {
         self.lag = Some(ticks);
         self.guessed = true;
-        self.run = Run::None;
+        self.new_run();
     }
 
     /// A sighting fitted neither the lagged moment nor the picture's own. A guessed lag
@@ -182,6 +244,7 @@ impl CameraCheck {
             self.lag = None;
             self.guessed = false;
             self.run = Run::Drifted;
+            self.first = None;
         }
     }
 
@@ -195,7 +258,13 @@ impl CameraCheck {
     /// The filter took a sighting on tick `tick`: any run of refusals is over.
     pub fn taken(&mut self, tick: u32) {
         self.last_taken_tick = tick;
+        self.new_run();
+    }
+
+    /// No refusal since: the next begins a run.
+    fn new_run(&mut self) {
         self.run = Run::None;
+        self.first = None;
     }
 
     /// Whether a refused sighting, its bearing and range innovations `refused_by`
@@ -210,20 +279,48 @@ impl CameraCheck {
             || i64::from(range).abs() > grown(self.range, self.range_per_tick)
     }
 
+    /// Whether a sighting of tag `id` the gate refused, its bearing innovation in
+    /// `refused_by` ([`crate::Estimator::refused_by`]), moved from the run's first
+    /// refused sighting of that tag further than the estimate can have drifted since
+    /// ([`CameraCheck::tick`]). A heading gone off holds the innovation still as the
+    /// robot turns; a camera putting its tags a few pixels aside does not, since a
+    /// column's bearing is not proportional to it (a lie of 40 pixels is 23 degrees at
+    /// the picture's centre and 8 at its edge). The run's first refused sighting is
+    /// remembered here.
+    pub fn creeps(&mut self, id: u16, refused_by: (i32, i32)) -> bool {
+        let bearing = refused_by.0;
+        match self.first {
+            None => {
+                self.first = Some((id, bearing));
+                self.drift = 0;
+                false
+            }
+            Some((first_id, first)) if first_id == id => {
+                let moved = (i64::from(bearing) - i64::from(first)).abs();
+                moved > self.creep.saturating_add(self.drift)
+            }
+            Some(_) => false,
+        }
+    }
+
     /// A picture was refused whole by the gate, `leapt` if each of its refused sightings
-    /// leapt ([`CameraCheck::leaps`]). The first such picture after one taken decides
-    /// the run. Returns whether the run counts towards forgetting the heading: it does
-    /// not if it began with a leap.
-    pub fn refused(&mut self, leapt: bool) -> bool {
+    /// leapt ([`CameraCheck::leaps`]), `crept` if one crept ([`CameraCheck::creeps`]).
+    /// The first such picture after one taken decides the run, unless a later one
+    /// creeps: then the run is the camera's. Returns whether the run counts towards
+    /// forgetting the heading: it does not if it began with a leap or crept since.
+    pub fn refused(&mut self, leapt: bool, crept: bool) -> bool {
         if self.run == Run::None {
             self.run = if leapt { Run::Leapt } else { Run::Drifted };
+        }
+        if crept {
+            self.run = Run::Leapt;
         }
         self.run == Run::Drifted
     }
 
     /// The filter forgot its heading: the next refusal begins a new run.
     pub fn relocalised(&mut self) {
-        self.run = Run::None;
+        self.new_run();
     }
 }
 
@@ -306,13 +403,13 @@ mod tests {
     #[test]
     fn a_guessed_lag_goes_when_no_moment_fits_and_a_seen_one_stays() {
         let mut c = CameraCheck::new(&LeapLimit::SEED);
-        assert!(!c.refused(true));
+        assert!(!c.refused(true, false));
         c.behind(3);
         assert_eq!(c.lag_ticks(), Some(3));
         c.fits_no_moment();
         assert_eq!(c.lag_ticks(), None);
         // The refusals now count towards forgetting the heading, though the run leapt.
-        assert!(c.refused(true));
+        assert!(c.refused(true, false));
         // A lag a repeated picture showed is evidence, not a guess.
         for tick in 1..4 {
             assert_eq!(c.judge(&picture(tick as i32), tick), Picture::New);
@@ -330,15 +427,55 @@ mod tests {
     }
 
     #[test]
+    fn an_innovation_that_creeps_faster_than_drift_is_the_cameras() {
+        let mut c = CameraCheck::new(&LeapLimit::SEED);
+        c.taken(90);
+        let mdeg = |d: i64| units::heading_from_mdeg(d) as i32;
+        let steady = |c: &mut CameraCheck, ticks: u32| {
+            for _ in 0..ticks {
+                c.tick(Some(0), 100_000);
+            }
+        };
+        // The run's first refused sighting of tag 11, 6 degrees off: the drift's.
+        assert!(!c.creeps(11, (mdeg(6_000), 0)));
+        assert!(c.refused(false, false));
+        // A heading gone off, the gyro still lying by 3 degrees a second.
+        steady(&mut c, 1);
+        assert!(!c.creeps(11, (mdeg(6_300), 0)));
+        steady(&mut c, 3);
+        // Another tag is held to its own first sighting, not this one's.
+        assert!(!c.creeps(12, (mdeg(-2_000), 0)));
+        // A lie growing a degree a tick as the tag nears the picture's centre.
+        assert!(c.creeps(11, (mdeg(10_300), 0)));
+        assert!(!c.refused(false, true));
+        // The run stays the camera's until a sighting is taken.
+        assert!(!c.refused(false, false));
+        c.taken(110);
+        assert!(!c.creeps(11, (mdeg(10_300), 0)));
+        assert!(c.refused(false, false));
+        // As a 31.5 degrees a second turn ends, a gyro three ticks late misreads it by
+        // 3.15 degrees a tick: the same creep is then the drift's.
+        steady(&mut c, 1);
+        assert!(!c.creeps(11, (mdeg(10_600), 0)));
+        for _ in 0..4 {
+            c.tick(Some(31_500), 100_000);
+        }
+        assert!(!c.creeps(11, (mdeg(14_600), 0)));
+        // And with the commands not known, nothing is held to the first sighting.
+        c.tick(None, 100_000);
+        assert!(!c.creeps(11, (mdeg(90_000), 0)));
+    }
+
+    #[test]
     fn a_run_that_began_with_a_leap_never_counts_until_a_sighting_is_taken() {
         let mut c = CameraCheck::new(&LeapLimit::SEED);
-        assert!(!c.refused(true));
+        assert!(!c.refused(true, false));
         // Later pictures of the run are no further off than the first: still the leap's.
-        assert!(!c.refused(false));
+        assert!(!c.refused(false, false));
         c.taken(7);
-        assert!(c.refused(false));
-        assert!(c.refused(true));
+        assert!(c.refused(false, false));
+        assert!(c.refused(true, false));
         c.relocalised();
-        assert!(!c.refused(true));
+        assert!(!c.refused(true, false));
     }
 }

@@ -130,6 +130,19 @@ impl RecentCommands {
         self.slots.get(newest).copied().flatten()
     }
 
+    /// How far the robot's turn may differ from the turn the last commands held steady
+    /// for, millidegrees per second: none while they are steady, and while they changed
+    /// of late (a turn starting or ending) the fastest of them, which a gyro reading a
+    /// few ticks late may still read or not yet read. `None` unless all are known.
+    pub fn unsteady_turn_mdps(&self) -> Option<u32> {
+        let (low, high, _) = self.bounds?;
+        Some(if self.steady() {
+            0
+        } else {
+            high.max(-low).unsigned_abs()
+        })
+    }
+
     /// Whether any of the last commands turned the robot; `None` unless all are known.
     pub fn turning(&self) -> Option<bool> {
         self.bounds.map(|(low, high, _)| low != 0 || high != 0)

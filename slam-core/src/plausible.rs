@@ -427,6 +427,11 @@ impl Plausibility {
         self.depth_vouched
     }
 
+    /// The motors' last commands ([`RecentCommands`]).
+    pub fn recent_commands(&self) -> &RecentCommands {
+        &self.commands
+    }
+
     /// Whether the motors were commanded to turn over the last ticks (their intervals and
     /// the two before, [`RecentCommands`]); `None` unless every command is known.
     pub fn turning_of_late(&self) -> Option<bool> {

@@ -605,6 +605,8 @@ impl<const W: usize, const H: usize> Slam<W, H> {
     /// turn, but for rounding, for half the work with two tags in view).
     fn filter_tags(&mut self, frame: &SensorFrame, witness: Witness) -> FixOutcome {
         let mut outcome = FixOutcome::NotAttempted;
+        let unsteady = self.plausibility.recent_commands().unsteady_turn_mdps();
+        self.camera.tick(unsteady, frame.dt_us);
         // Sightings the gate refused.
         let mut refused = 0u8;
         match self.camera.judge(&frame.tags, self.counters.ticks) {
@@ -634,8 +636,10 @@ impl<const W: usize, const H: usize> Slam<W, H> {
                 .tags_age_us
                 .saturating_add(lag.saturating_mul(frame.dt_us)),
         };
-        // Whether every sighting the gate refused leapt ([`CameraCheck::leaps`]).
+        // Whether every sighting the gate refused leapt ([`CameraCheck::leaps`]), and
+        // whether one crept ([`CameraCheck::creeps`]).
         let mut leapt = true;
+        let mut crept = false;
         // The picture's pose before the first taken update and after the latest.
         let mut carried: Option<(Pose, Pose)> = None;
         // Where the map is matched, the picture's sightings together move the position at
@@ -672,9 +676,9 @@ impl<const W: usize, const H: usize> Slam<W, H> {
                 Err(TagRefusal::Gate) => {
                     self.refused_off_range |= !self.estimator.refused_at_its_range();
                     refused = refused.saturating_add(1);
-                    leapt &= self
-                        .camera
-                        .leaps(self.estimator.refused_by(), self.counters.ticks);
+                    let by = self.estimator.refused_by();
+                    leapt &= self.camera.leaps(by, self.counters.ticks);
+                    crept |= self.camera.creeps(detection.id, by);
                     if outcome != FixOutcome::Taken {
                         outcome = FixOutcome::Rejected(FixRejection::Gate);
                     }
@@ -708,7 +712,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             }
             FixOutcome::Rejected(FixRejection::Gate) => {
                 self.counters.fixes_rejected_gate += 1;
-                if self.camera.refused(leapt) {
+                if self.camera.refused(leapt, crept) {
                     self.gate_rejections_in_a_row = self.gate_rejections_in_a_row.saturating_add(1);
                 } else {
                     self.counters.pictures_leapt += 1;

@@ -364,6 +364,8 @@ fn a_camera_that_leaps_never_makes_the_filter_forget_its_heading() {
         bearing_mdeg_per_tick: u32::MAX,
         range_mm: u32::MAX,
         range_mm_per_tick: u32::MAX,
+        creep_mdeg: u32::MAX,
+        creep_mdeg_per_tick: u32::MAX,
     };
     let run = |seed: u64, limit: LeapLimit, lie: bool| {
         let mut robot = wanderer(&start, seed);
