@@ -23,6 +23,7 @@
 //! a few ticks older instead ([`CameraCheck::behind`]), and drops the guess when a
 //! sighting fits neither moment ([`CameraCheck::fits_no_moment`]).
 
+use crate::commanded::{RecentCommands, COMMAND_FRAMES};
 use crate::estimator::units;
 use crate::frame::TagDetections;
 
@@ -76,8 +77,8 @@ pub struct CameraCheck {
     bearing_per_tick: i64,
     range: i64,
     range_per_tick: i64,
-    creep: i64,
-    creep_per_tick: i64,
+    creep: i32,
+    creep_per_tick: i32,
     /// Fingerprints of the last pictures with sightings in them (0: none yet), and the
     /// tick of each; the newest at `newest`.
     prints: [u32; REMEMBERED],
@@ -96,11 +97,24 @@ pub struct CameraCheck {
     first: Option<(u16, i32)>,
     /// How far the estimate's heading may have drifted since that sighting, in heading
     /// units ([`CameraCheck::tick`]).
-    drift: i64,
-    /// The turn the last change of the commands made, over a tick in heading units, and
-    /// for how many more ticks a late gyro may still misread it.
-    unsteady: i64,
-    unsteady_ticks: u8,
+    drift: i32,
+    /// The turn the last change of the commands made, over a tick in heading units
+    /// (`i32::MAX` if a command was not known), the change's count
+    /// ([`RecentCommands::changes`]) and the ticks since it.
+    unsteady: i32,
+    seen_changes: u8,
+    since_change: u8,
+}
+
+/// A turn of `mdps` over `dt_us`, in heading units: mdps x dt / 10^6 in shifts (the M0+
+/// divides in software). dt / 1,024 is 2.3 % short of milliseconds, / 1,024 again 2.3 %
+/// short of thousandths, and a sixteenth more brings it within 2 %; 32 bits hold a turn
+/// of 1,048 deg/s over 4 s, and at most 4.5 million mdeg in heading units.
+fn turned_in(mdps: u32, dt_us: u32) -> i32 {
+    let ms = (dt_us >> 10).min((1 << 12) - 1);
+    let mdeg = (mdps.min(1 << 20) * ms) >> 10;
+    let turned = units::heading_from_mdeg(i64::from(mdeg + (mdeg >> 4)));
+    turned.min(i64::from(i32::MAX)) as i32
 }
 
 /// How many ticks after the commands are steady again a gyro whose readings come late
@@ -148,8 +162,8 @@ impl CameraCheck {
             bearing_per_tick: heading(limit.bearing_mdeg_per_tick),
             range: position(limit.range_mm),
             range_per_tick: position(limit.range_mm_per_tick),
-            creep: heading(limit.creep_mdeg),
-            creep_per_tick: heading(limit.creep_mdeg_per_tick),
+            creep: heading(limit.creep_mdeg).clamp(0, i64::from(i32::MAX)) as i32,
+            creep_per_tick: heading(limit.creep_mdeg_per_tick).clamp(0, i64::from(i32::MAX)) as i32,
             prints: [0; REMEMBERED],
             ticks: [0; REMEMBERED],
             newest: 0,
@@ -160,36 +174,36 @@ impl CameraCheck {
             first: None,
             drift: 0,
             unsteady: 0,
-            unsteady_ticks: 0,
+            seen_changes: 0,
+            since_change: u8::MAX,
         }
     }
 
-    /// A tick went by, `dt_us` long, with the commands' turn `unsteady_mdps` from steady
-    /// ([`RecentCommands::unsteady_turn_mdps`]; `None`: not known): how far the heading
-    /// may have drifted grows by [`LeapLimit::creep_mdeg_per_tick`], and by the turn a
-    /// gyro a few ticks late can misread while the commands change and for
-    /// [`LATE_GYRO_TICKS`] after. With the commands not known nothing bounds it.
-    ///
-    /// [`RecentCommands::unsteady_turn_mdps`]: crate::commanded::RecentCommands::unsteady_turn_mdps
-    pub fn tick(&mut self, unsteady_mdps: Option<u32>, dt_us: u32) {
-        let Some(mdps) = unsteady_mdps else {
-            self.drift = i64::MAX;
+    /// A tick went by, `dt_us` long, under the `commands`: in a run of refusals, how far
+    /// the heading may have drifted grows by [`LeapLimit::creep_mdeg_per_tick`], and,
+    /// while the commands change and for [`LATE_GYRO_TICKS`] after, by the turn they
+    /// changed, which a gyro a few ticks late can misread by all of it. With a command
+    /// not known nothing bounds it. Off a run, only the commands' changes are followed.
+    pub fn tick(&mut self, commands: &RecentCommands, dt_us: u32) {
+        if commands.changes() != self.seen_changes {
+            self.seen_changes = commands.changes();
+            self.since_change = 0;
+            self.unsteady = match commands.fastest_turn_mdps() {
+                Some(mdps) => turned_in(mdps, dt_us),
+                None => i32::MAX,
+            };
+        } else {
+            self.since_change = self.since_change.saturating_add(1);
+        }
+        if self.first.is_none() {
             return;
-        };
-        if mdps > 0 {
-            // mdps x dt / 10^6 in shifts (the M0+ divides in software): dt / 1,024 is
-            // 2.3 % short of milliseconds, / 1,024 again 2.3 % short of thousandths, and
-            // a sixteenth more brings it within 2 %; 32 bits hold a turn of 1,048 deg/s
-            // over 4 s.
-            let ms = (dt_us >> 10).min(1 << 12);
-            let mdeg = (mdps.min(1 << 20) * ms) >> 10;
-            self.unsteady = units::heading_from_mdeg(i64::from(mdeg + (mdeg >> 4)));
-            self.unsteady_ticks = LATE_GYRO_TICKS + 1;
         }
         let mut grown = self.creep_per_tick;
-        if self.unsteady_ticks > 0 {
-            self.unsteady_ticks -= 1;
+        if usize::from(self.since_change) < COMMAND_FRAMES + usize::from(LATE_GYRO_TICKS) {
             grown = grown.saturating_add(self.unsteady);
+        }
+        if commands.newest().is_none() {
+            grown = i32::MAX;
         }
         self.drift = self.drift.saturating_add(grown);
     }
@@ -296,8 +310,8 @@ impl CameraCheck {
                 false
             }
             Some((first_id, first)) if first_id == id => {
-                let moved = (i64::from(bearing) - i64::from(first)).abs();
-                moved > self.creep.saturating_add(self.drift)
+                let moved = bearing.abs_diff(first);
+                moved > self.creep.saturating_add(self.drift).unsigned_abs()
             }
             Some(_) => false,
         }
@@ -428,21 +442,34 @@ mod tests {
 
     #[test]
     fn an_innovation_that_creeps_faster_than_drift_is_the_cameras() {
+        use crate::frame::DriveCommand;
+        let turn = Some(DriveCommand {
+            speed_mm_s: 0,
+            turn_mdps: 31_500,
+        });
+        let drive = Some(DriveCommand {
+            speed_mm_s: 86,
+            turn_mdps: 0,
+        });
         let mut c = CameraCheck::new(&LeapLimit::SEED);
-        c.taken(90);
-        let mdeg = |d: i64| units::heading_from_mdeg(d) as i32;
-        let steady = |c: &mut CameraCheck, ticks: u32| {
-            for _ in 0..ticks {
-                c.tick(Some(0), 100_000);
+        let mut commands = RecentCommands::default();
+        let mut ticks = |c: &mut CameraCheck, command: Option<DriveCommand>, n: u32| {
+            for _ in 0..n {
+                commands.push(command);
+                c.tick(&commands, 100_000);
             }
         };
+        // A steady turn long under way.
+        ticks(&mut c, turn, 10);
+        c.taken(90);
+        let mdeg = |d: i64| units::heading_from_mdeg(d) as i32;
         // The run's first refused sighting of tag 11, 6 degrees off: the drift's.
         assert!(!c.creeps(11, (mdeg(6_000), 0)));
         assert!(c.refused(false, false));
         // A heading gone off, the gyro still lying by 3 degrees a second.
-        steady(&mut c, 1);
+        ticks(&mut c, turn, 1);
         assert!(!c.creeps(11, (mdeg(6_300), 0)));
-        steady(&mut c, 3);
+        ticks(&mut c, turn, 3);
         // Another tag is held to its own first sighting, not this one's.
         assert!(!c.creeps(12, (mdeg(-2_000), 0)));
         // A lie growing a degree a tick as the tag nears the picture's centre.
@@ -453,16 +480,20 @@ mod tests {
         c.taken(110);
         assert!(!c.creeps(11, (mdeg(10_300), 0)));
         assert!(c.refused(false, false));
-        // As a 31.5 degrees a second turn ends, a gyro three ticks late misreads it by
-        // 3.15 degrees a tick: the same creep is then the drift's.
-        steady(&mut c, 1);
-        assert!(!c.creeps(11, (mdeg(10_600), 0)));
-        for _ in 0..4 {
-            c.tick(Some(31_500), 100_000);
-        }
+        // As the turn gives way to a drive, a gyro three ticks late misreads it by 3.15
+        // degrees a tick: the same creep is then the drift's...
+        ticks(&mut c, drive, 4);
         assert!(!c.creeps(11, (mdeg(14_600), 0)));
+        // ...but not once the commands have long been steady.
+        ticks(&mut c, drive, 10);
+        c.taken(125);
+        assert!(!c.creeps(11, (mdeg(14_600), 0)));
+        ticks(&mut c, drive, 2);
+        assert!(c.creeps(11, (mdeg(17_800), 0)));
         // And with the commands not known, nothing is held to the first sighting.
-        c.tick(None, 100_000);
+        c.taken(130);
+        assert!(!c.creeps(11, (0, 0)));
+        ticks(&mut c, None, 1);
         assert!(!c.creeps(11, (mdeg(90_000), 0)));
     }
 

@@ -100,11 +100,17 @@ pub struct RecentCommands {
     next: u8,
     /// [`RecentCommands::bounds`] of the slots, worked out once a push for both checks.
     bounds: Option<(i32, i32, u32)>,
+    /// How many times the command has changed, wrapping: a reading taken under the same
+    /// count was taken under the same command.
+    changes: u8,
 }
 
 impl RecentCommands {
     /// Takes a frame's command (`None`: not known), in place of the oldest.
     pub fn push(&mut self, command: Option<DriveCommand>) {
+        if command != self.newest() {
+            self.changes = self.changes.wrapping_add(1);
+        }
         let at = usize::from(self.next);
         if let Some(slot) = self.slots.get_mut(at) {
             *slot = command;
@@ -124,23 +130,27 @@ impl RecentCommands {
         first.is_some() && rest.iter().all(|c| c == first)
     }
 
+    /// How many times the command has changed, wrapping: the same count, the same
+    /// command since.
+    pub fn changes(&self) -> u8 {
+        self.changes
+    }
+
     /// The newest command, if known.
     pub fn newest(&self) -> Option<DriveCommand> {
-        let newest = (usize::from(self.next) + COMMAND_FRAMES - 1) % COMMAND_FRAMES;
+        // The slot before the next, without the division a `%` costs the M0+.
+        let newest = match usize::from(self.next) {
+            0 => COMMAND_FRAMES - 1,
+            next => next - 1,
+        };
         self.slots.get(newest).copied().flatten()
     }
 
-    /// How far the robot's turn may differ from the turn the last commands held steady
-    /// for, millidegrees per second: none while they are steady, and while they changed
-    /// of late (a turn starting or ending) the fastest of them, which a gyro reading a
-    /// few ticks late may still read or not yet read. `None` unless all are known.
-    pub fn unsteady_turn_mdps(&self) -> Option<u32> {
-        let (low, high, _) = self.bounds?;
-        Some(if self.steady() {
-            0
-        } else {
-            high.max(-low).unsigned_abs()
-        })
+    /// The fastest turn among the last commands, millidegrees per second either way;
+    /// `None` unless all are known.
+    pub fn fastest_turn_mdps(&self) -> Option<u32> {
+        self.bounds
+            .map(|(low, high, _)| high.max(-low).unsigned_abs())
     }
 
     /// Whether any of the last commands turned the robot; `None` unless all are known.

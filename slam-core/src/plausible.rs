@@ -414,9 +414,10 @@ pub struct Plausibility {
     /// Whether a tag's distance agreed with the last tick's scan.
     depth_vouched: bool,
     /// The newest trusted readings taken while the robot was not held, each with the
-    /// command then in force, to stand in for the tick a doubt begins.
-    moving_gyro: Option<(GyroRate, Option<DriveCommand>)>,
-    moving_flow: Option<(FlowDelta, Option<DriveCommand>)>,
+    /// commands' change count then ([`RecentCommands::changes`]), to stand in for the
+    /// tick a doubt begins.
+    moving_gyro: Option<(GyroRate, u8)>,
+    moving_flow: Option<(FlowDelta, u8)>,
     /// The motors' last commands, to check the gyro against.
     commands: RecentCommands,
 }
@@ -558,12 +559,12 @@ fn known<T: Copy>(
     held: bool,
     commands: &RecentCommands,
     idle: impl Fn(&DriveCommand) -> bool,
-    moving: &mut Option<(T, Option<DriveCommand>)>,
+    moving: &mut Option<(T, u8)>,
 ) -> Known<T> {
     match (doubt, reading) {
         (None, Some(r)) => {
             if !held {
-                *moving = Some((r, commands.newest()));
+                *moving = Some((r, commands.changes()));
             }
             Known::Read(r)
         }
@@ -571,11 +572,15 @@ fn known<T: Copy>(
         (Some(_), _) if held => Known::Still,
         (Some(_), _) => match *moving {
             None => Known::Lost,
-            Some((r, then)) if commands.steady() => match commands.newest() {
-                now if now == then => Known::Read(r),
-                Some(now) if idle(&now) => Known::Still,
-                _ => Known::StandIn(r),
-            },
+            Some((r, then)) if commands.steady() => {
+                if then == commands.changes() {
+                    Known::Read(r)
+                } else if commands.newest().is_some_and(|now| idle(&now)) {
+                    Known::Still
+                } else {
+                    Known::StandIn(r)
+                }
+            }
             Some((r, _)) => Known::StandIn(r),
         },
     }

@@ -605,8 +605,8 @@ impl<const W: usize, const H: usize> Slam<W, H> {
     /// turn, but for rounding, for half the work with two tags in view).
     fn filter_tags(&mut self, frame: &SensorFrame, witness: Witness) -> FixOutcome {
         let mut outcome = FixOutcome::NotAttempted;
-        let unsteady = self.plausibility.recent_commands().unsteady_turn_mdps();
-        self.camera.tick(unsteady, frame.dt_us);
+        self.camera
+            .tick(self.plausibility.recent_commands(), frame.dt_us);
         // Sightings the gate refused.
         let mut refused = 0u8;
         match self.camera.judge(&frame.tags, self.counters.ticks) {
