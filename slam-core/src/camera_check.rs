@@ -295,8 +295,8 @@ impl CameraCheck {
 
     /// Whether a sighting of tag `id` the gate refused, its bearing innovation in
     /// `refused_by` ([`crate::Estimator::refused_by`]), moved from the run's first
-    /// refused sighting of that tag further than the estimate can have drifted since
-    /// ([`CameraCheck::tick`]). A heading gone off holds the innovation still as the
+    /// refused sighting, when that was of the same tag, further than the estimate can
+    /// have drifted since ([`CameraCheck::tick`]). A heading gone off holds the innovation still as the
     /// robot turns; a camera putting its tags a few pixels aside does not, since a
     /// column's bearing is not proportional to it (a lie of 40 pixels is 23 degrees at
     /// the picture's centre and 8 at its edge). The run's first refused sighting is
@@ -470,7 +470,7 @@ mod tests {
         ticks(&mut c, turn, 1);
         assert!(!c.creeps(11, (mdeg(6_300), 0)));
         ticks(&mut c, turn, 3);
-        // Another tag is held to its own first sighting, not this one's.
+        // Another tag is not held to this tag's first sighting.
         assert!(!c.creeps(12, (mdeg(-2_000), 0)));
         // A lie growing a degree a tick as the tag nears the picture's centre.
         assert!(c.creeps(11, (mdeg(10_300), 0)));
