@@ -592,6 +592,16 @@ mod tests {
 
     const C: PlausibleConfig = PlausibleConfig::SEED;
 
+    /// A turn on the spot and a straight drive, as the route commands them.
+    const TURN: DriveCommand = DriveCommand {
+        speed_mm_s: 0,
+        turn_mdps: 31_500,
+    };
+    const DRIVE: DriveCommand = DriveCommand {
+        speed_mm_s: 86,
+        turn_mdps: 0,
+    };
+
     fn rate(mdps: i32) -> GyroRate {
         GyroRate { rate_mdps: mdps }
     }
@@ -746,27 +756,19 @@ mod tests {
 
     #[test]
     fn a_stand_in_is_a_reading_while_the_commands_are_steady_and_a_guess_after_a_change() {
-        let turn = DriveCommand {
-            speed_mm_s: 0,
-            turn_mdps: 31_500,
-        };
-        let drive = DriveCommand {
-            speed_mm_s: 86,
-            turn_mdps: 0,
-        };
         let turning = || {
             let mut p = Plausibility::default();
             for _ in 0..4 {
-                let j = p.judge(Some(rate(31_500)), None, None, Some(turn), &C);
+                let j = p.judge(Some(rate(31_500)), None, None, Some(TURN), &C);
                 assert_eq!(j.trust, Trust::default());
             }
             p
         };
         // Lost in a steady turn: the robot turns as it did.
-        let lost = turning().judge(None, None, None, Some(turn), &C);
+        let lost = turning().judge(None, None, None, Some(TURN), &C);
         assert_eq!(lost.gyro, Known::Read(rate(31_500)));
         // Lost as the turn gives way to a drive: the last rate is only a guess.
-        let lost = turning().judge(None, None, None, Some(drive), &C);
+        let lost = turning().judge(None, None, None, Some(DRIVE), &C);
         assert_eq!(lost.gyro, Known::StandIn(rate(31_500)));
         // And with the commands not known.
         let lost = turning().judge(None, None, None, None, &C);
@@ -775,35 +777,27 @@ mod tests {
 
     #[test]
     fn a_reading_from_another_command_is_not_one_for_this() {
-        let turn = DriveCommand {
-            speed_mm_s: 0,
-            turn_mdps: 31_500,
-        };
-        let drive = DriveCommand {
-            speed_mm_s: 86,
-            turn_mdps: 0,
-        };
         let mut p = Plausibility::default();
         // Readings as noisy as a real sensor's: one repeated bit for bit is stuck.
         for i in 0..4 {
-            p.judge(Some(rate(i)), Some(flow(86 - i, 0)), None, Some(drive), &C);
+            p.judge(Some(rate(i)), Some(flow(86 - i, 0)), None, Some(DRIVE), &C);
         }
         // The flow drops out as the drive ends and the turn on the spot begins; its
         // readings in the turn are trusted again while the robot is still held for it,
         // so none of them is the newest taken while moving...
-        p.judge(Some(rate(0)), None, None, Some(drive), &C);
+        p.judge(Some(rate(0)), None, None, Some(DRIVE), &C);
         for i in 0..3 {
             p.judge(
                 Some(rate(31_500 + i)),
                 Some(flow(1 - i, 0)),
                 None,
-                Some(turn),
+                Some(TURN),
                 &C,
             );
         }
         // ...and when it is lost again in the steady turn, the last drive's counts are
         // not this tick's: the turn's commands say the robot does not drive.
-        let lost = p.judge(Some(rate(31_490)), None, None, Some(turn), &C);
+        let lost = p.judge(Some(rate(31_490)), None, None, Some(TURN), &C);
         assert!(lost.trust.flow.is_some());
         assert_eq!(lost.flow, Known::Still);
     }
