@@ -455,7 +455,7 @@ mod tests {
         let mut commands = RecentCommands::default();
         let mut ticks = |c: &mut CameraCheck, command: Option<DriveCommand>, n: u32| {
             for _ in 0..n {
-                commands.push(command);
+                commands.push(command, &crate::commanded::CommandTolerance::SEED);
                 c.tick(&commands, 100_000);
             }
         };

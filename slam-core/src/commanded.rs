@@ -16,8 +16,14 @@
 //! axis ([`check_flow_commanded`]).
 //!
 //! What is caught is a reading of more turn or more drive than commanded, or of a turn
-//! the other way. A gyro or a flow that reads less than commanded is not told from a
-//! wheel that slips.
+//! the other way; and one of far less than every command of the window asked for
+//! ([`Doubt::Unmoved`], [`CommandTolerance::least_per_1024`]): a wheel that slips loses a
+//! share of its motion, a sensor fallen behind (or a robot stalled) all of it. The window
+//! leaves a new command a tick or two to take, so such a sensor is found out only on the
+//! window's last tick: the core then stands in the commanded motion for the whole window
+//! ([`crate::plausible`]). Before that, and while a command just ended still bounds the
+//! window, a reading outside what the newest command alone allows ([`unfollowed`]) is
+//! taken as a guess, and no scan is vouched for on its tick.
 
 use crate::frame::{DriveCommand, FlowDelta, GyroRate};
 use crate::plausible::Doubt;
@@ -49,6 +55,11 @@ pub struct CommandTolerance {
     pub flow_offset_mm: u8,
     /// Added in every case for the flow's noise, counts.
     pub flow_margin_counts: u8,
+    /// The share of the least motion every one of the last commands asked for
+    /// ([`RecentCommands::least`]) that the gyro and the flow must read, in 1,024ths,
+    /// less their margins: a reading short of it is a sensor fallen behind, or a robot
+    /// stalled, not a wheel that slips.
+    pub least_per_1024: u16,
 }
 
 impl CommandTolerance {
@@ -64,6 +75,9 @@ impl CommandTolerance {
     /// scale read long (the seed's reads 4 % short); 10 mm beside the axis (a 20 mm mount
     /// error on BugBot's chassis is a loose sensor; `seed-mat-rough` has 3 mm); 6 counts
     /// for the noise (0.5 counts a 100 Hz reading: 1.6 a tick, so nearly four deviations).
+    /// Half the least commanded motion must be read (less the same margins): a spell of
+    /// slip loses a third of it (`seed-mat-rough`), the flow reads 4 % short and the
+    /// gyro's scale 1 %; a sensor fallen behind reads none.
     pub const SEED: CommandTolerance = CommandTolerance {
         turn_per_1024: 51,
         drive_turn_mdps_per_mm_s: 46,
@@ -71,6 +85,7 @@ impl CommandTolerance {
         drive_flow_per_1024: 1_126,
         flow_offset_mm: 10,
         flow_margin_counts: 6,
+        least_per_1024: 512,
     };
 }
 
@@ -89,6 +104,147 @@ pub const COMMAND_FRAMES: usize = 3;
 const TURN_LIMIT_MDPS: i32 = 1 << 20;
 const SPEED_LIMIT_MM_S: u32 = 1 << 16;
 
+/// The motion some commands allow over a frame's interval: a turn between `low` and
+/// `high` (0 always among them: a wheel may stop) and a drive no faster than `speed`
+/// either way; and at least `least_turn` and `least_speed` (signed, 0: nothing), what
+/// every one of them asked for the same way. Within the commands' limits.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+struct Reach {
+    low: i32,
+    high: i32,
+    speed: u32,
+    least_turn: i32,
+    least_speed: i32,
+}
+
+impl Reach {
+    /// What `command` alone allows: what it asks, and less by slip.
+    fn of(command: &DriveCommand) -> Reach {
+        let (turn, speed) = (command.turn_mdps, command.speed_mm_s);
+        Reach::between(turn, turn, speed, speed)
+    }
+
+    /// What each of `commands` allows, together: `None` if one is not known.
+    fn of_all(commands: &[Option<DriveCommand>; COMMAND_FRAMES]) -> Option<Reach> {
+        let (mut turn_low, mut turn_high) = (i32::MAX, i32::MIN);
+        let (mut speed_low, mut speed_high) = (i32::MAX, i32::MIN);
+        for command in commands {
+            let command = command.as_ref()?;
+            turn_low = turn_low.min(command.turn_mdps);
+            turn_high = turn_high.max(command.turn_mdps);
+            speed_low = speed_low.min(command.speed_mm_s);
+            speed_high = speed_high.max(command.speed_mm_s);
+        }
+        Some(Reach::between(turn_low, turn_high, speed_low, speed_high))
+    }
+
+    /// Commands whose turns lie between `turn_low` and `turn_high` and whose drives
+    /// between `speed_low` and `speed_high`.
+    fn between(turn_low: i32, turn_high: i32, speed_low: i32, speed_high: i32) -> Reach {
+        let turn = |t: i32| t.clamp(-TURN_LIMIT_MDPS, TURN_LIMIT_MDPS);
+        let speed = |v: i32| v.clamp(-(SPEED_LIMIT_MM_S as i32), SPEED_LIMIT_MM_S as i32);
+        // All the same way: the one nearest standing; else nothing.
+        let least = |low: i32, high: i32| {
+            if low > 0 {
+                low
+            } else if high < 0 {
+                high
+            } else {
+                0
+            }
+        };
+        Reach {
+            low: turn(turn_low.min(0)),
+            high: turn(turn_high.max(0)),
+            speed: speed(speed_low)
+                .unsigned_abs()
+                .max(speed(speed_high).unsigned_abs()),
+            least_turn: turn(least(turn_low, turn_high)),
+            least_speed: speed(least(speed_low, speed_high)),
+        }
+    }
+}
+
+/// What the gyro and the flow may read under a [`Reach`], with a [`CommandTolerance`]'s
+/// margins: worked out when the commands change, so that a tick's checks are compares.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+struct Limits {
+    /// The gyro's rate lies between these, millidegrees per second.
+    rate_low: i32,
+    rate_high: i32,
+    /// And reads at least this much of the turn every command asked for, along `turn_way`
+    /// (1 clockwise, -1 anticlockwise, 0: none asked).
+    rate_least: i32,
+    turn_way: i8,
+    /// The flow's forward counts are at most this many either way...
+    flow_bound: u32,
+    /// ... and at least this many along `drive_way` (1 forwards, -1 backwards, 0: none
+    /// asked).
+    flow_least: i32,
+    drive_way: i8,
+}
+
+impl Limits {
+    /// In 32 bits: the commands' limits and the tolerance's byte-wide shares keep every
+    /// turn's sum below 2^30; the drive's products stay below 2^32, its sum saturates.
+    fn of(reach: &Reach, tolerance: &CommandTolerance) -> Limits {
+        let fastest = reach.high.max(-reach.low);
+        let slack = ((fastest * i32::from(tolerance.turn_per_1024)) >> 10)
+            + reach.speed as i32 * i32::from(tolerance.drive_turn_mdps_per_mm_s)
+            + i32::from(tolerance.margin_mdps);
+        let fastest_turn = fastest.unsigned_abs();
+        // mdps x mm x 146 / 2^23 (1.74e-5): pi / 180 / 1000 rad/s per mdps, over a 0.1 s
+        // tick, in 100 um counts.
+        let turned = ((fastest_turn >> 6) * u32::from(tolerance.flow_offset_mm) * 146) >> 17;
+        let flow_bound = ((reach.speed * u32::from(tolerance.drive_flow_per_1024)) >> 10)
+            .saturating_add(turned)
+            .saturating_add(u32::from(tolerance.flow_margin_counts));
+        // A share of the least motion, less the margin; a count a tick per mm/s.
+        let share = i32::from(tolerance.least_per_1024.min(1024));
+        let least = |motion: i32, margin: u16| ((motion.abs() * share) >> 10) - i32::from(margin);
+        Limits {
+            rate_low: reach.low - slack,
+            rate_high: reach.high + slack,
+            rate_least: least(reach.least_turn, tolerance.margin_mdps),
+            turn_way: reach.least_turn.signum() as i8,
+            flow_bound,
+            flow_least: least(reach.least_speed, u16::from(tolerance.flow_margin_counts)),
+            drive_way: reach.least_speed.signum() as i8,
+        }
+    }
+
+    /// The gyro's check.
+    fn turn(&self, rate: i32) -> Result<(), Doubt> {
+        if rate > self.rate_high || rate < self.rate_low {
+            return Err(Doubt::Uncommanded);
+        }
+        short_of(rate, self.turn_way, self.rate_least)
+    }
+
+    /// The flow's check.
+    fn drive(&self, forward: i32) -> Result<(), Doubt> {
+        if forward.unsigned_abs() > self.flow_bound {
+            return Err(Doubt::Uncommanded);
+        }
+        short_of(forward, self.drive_way, self.flow_least)
+    }
+}
+
+/// Whether `read`, along `way` (1, -1; 0: nothing asked), is less than `least`:
+/// [`Doubt::Unmoved`].
+fn short_of(read: i32, way: i8, least: i32) -> Result<(), Doubt> {
+    let along = match way {
+        0 => return Ok(()),
+        1 => read,
+        _ => read.saturating_neg(),
+    };
+    if along < least {
+        Err(Doubt::Unmoved)
+    } else {
+        Ok(())
+    }
+}
+
 /// The commands in force as the last [`COMMAND_FRAMES`] frames' intervals ended, in a
 /// ring: only their range matters, not their order. A command that changed during the
 /// last interval is the newest or the one before; one that changed during the interval
@@ -98,16 +254,24 @@ pub struct RecentCommands {
     slots: [Option<DriveCommand>; COMMAND_FRAMES],
     /// The slot the next command overwrites: the oldest.
     next: u8,
-    /// [`RecentCommands::bounds`] of the slots, worked out once a push for both checks.
-    bounds: Option<(i32, i32, u32)>,
+    /// What the slots allow together, and what the gyro and the flow may read then,
+    /// worked out when a push changes the slots.
+    reach: Option<(Reach, Limits)>,
     /// How many times the command has changed, wrapping: a reading taken under the same
     /// count was taken under the same command.
     changes: u8,
+    /// [`RecentCommands::steady`], worked out once a push.
+    steady: bool,
 }
 
 impl RecentCommands {
-    /// Takes a frame's command (`None`: not known), in place of the oldest.
-    pub fn push(&mut self, command: Option<DriveCommand>) {
+    /// Takes a frame's command (`None`: not known), in place of the oldest; the readings
+    /// are then held to the commands within `tolerance`.
+    pub fn push(&mut self, command: Option<DriveCommand>, tolerance: &CommandTolerance) {
+        // Steady and the same again: every slot already holds it.
+        if self.steady && command == self.newest() {
+            return;
+        }
         if command != self.newest() {
             self.changes = self.changes.wrapping_add(1);
         }
@@ -120,14 +284,15 @@ impl RecentCommands {
         } else {
             0
         };
-        self.bounds = self.bounds_of_slots();
+        self.reach = Reach::of_all(&self.slots).map(|r| (r, Limits::of(&r, tolerance)));
+        let [first, rest @ ..] = &self.slots;
+        self.steady = first.is_some() && rest.iter().all(|c| c == first);
     }
 
     /// Whether the last commands are all known and all the same: the robot moves now as
     /// it moved a few ticks ago.
     pub fn steady(&self) -> bool {
-        let [first, rest @ ..] = &self.slots;
-        first.is_some() && rest.iter().all(|c| c == first)
+        self.steady
     }
 
     /// How many times the command has changed, wrapping: the same count, the same
@@ -149,92 +314,82 @@ impl RecentCommands {
     /// The fastest turn among the last commands, millidegrees per second either way;
     /// `None` unless all are known.
     pub fn fastest_turn_mdps(&self) -> Option<u32> {
-        self.bounds
-            .map(|(low, high, _)| high.max(-low).unsigned_abs())
+        self.reach.map(|(r, _)| r.high.max(-r.low).unsigned_abs())
     }
 
     /// Whether any of the last commands turned the robot; `None` unless all are known.
     pub fn turning(&self) -> Option<bool> {
-        self.bounds.map(|(low, high, _)| low != 0 || high != 0)
+        self.reach.map(|(r, _)| r.low != 0 || r.high != 0)
     }
 
-    /// The slowest and fastest turn the robot can have been commanded over the last
-    /// interval, millidegrees per second (0 always among them: a wheel may stop), and the
-    /// fastest drive, millimetres per second; `None` unless all the commands are known.
-    fn bounds(&self) -> Option<(i32, i32, u32)> {
-        self.bounds
-    }
-
-    fn bounds_of_slots(&self) -> Option<(i32, i32, u32)> {
-        let (mut low, mut high, mut speed) = (0, 0, 0);
-        for command in self.slots {
-            let command = command?;
-            low = command.turn_mdps.min(low);
-            high = command.turn_mdps.max(high);
-            speed = command.speed_mm_s.unsigned_abs().max(speed);
-        }
-        Some((
-            low.max(-TURN_LIMIT_MDPS),
-            high.min(TURN_LIMIT_MDPS),
-            speed.min(SPEED_LIMIT_MM_S),
-        ))
+    /// The slowest turn (millidegrees per second) and the slowest drive (millimetres per
+    /// second) that every one of the last commands asked for the same way, signed; 0
+    /// where one did not (a command unknown, stopping, or the other way): the least
+    /// motion the robot must have made, but for slip, over the window.
+    pub fn least(&self) -> (i32, i32) {
+        self.reach
+            .map_or((0, 0), |(r, _)| (r.least_turn, r.least_speed))
     }
 }
 
 /// Whether the gyro's `rate` over the last interval is one the robot can have turned at
-/// under the `recent` commands, within `tolerance`. Nothing is checked while a command
-/// is unknown.
-///
-/// In 32 bits: the commands' limits and the tolerance's byte-wide shares keep every sum
-/// below 2^30.
+/// under the `recent` commands, within the tolerance they were pushed with: no faster than
+/// the fastest commanded turn either way ([`Doubt::Uncommanded`]), and at least a share
+/// of the slowest turn every command asked for ([`Doubt::Unmoved`]). Nothing is checked
+/// while a command is unknown.
 #[inline(never)]
-pub fn check_gyro_commanded(
-    rate: GyroRate,
-    recent: &RecentCommands,
-    tolerance: &CommandTolerance,
-) -> Result<(), Doubt> {
-    let Some((low, high, speed_mm_s)) = recent.bounds() else {
-        return Ok(());
-    };
-    let fastest = high.max(-low);
-    let slack = ((fastest * i32::from(tolerance.turn_per_1024)) >> 10)
-        + speed_mm_s as i32 * i32::from(tolerance.drive_turn_mdps_per_mm_s)
-        + i32::from(tolerance.margin_mdps);
-    let rate = rate.rate_mdps;
-    if rate > high + slack || rate < low - slack {
-        Err(Doubt::Uncommanded)
-    } else {
-        Ok(())
+pub fn check_gyro_commanded(rate: GyroRate, recent: &RecentCommands) -> Result<(), Doubt> {
+    match &recent.reach {
+        Some((_, limits)) => limits.turn(rate.rate_mdps),
+        None => Ok(()),
     }
 }
 
 /// Whether the flow's forward counts over the last interval are a drive the robot can
-/// have made under the `recent` commands, within `tolerance`: no faster than the fastest
-/// commanded drive, plus what the fastest commanded turn moves a sensor beside the axis.
-/// Nothing is checked while a command is unknown.
-///
-/// In 32 bits: the commands' limits keep the drive's product below 2^32 and the turn's
-/// below 2^30; the sum saturates.
+/// have made under the `recent` commands, within the tolerance they were pushed with: no
+/// faster than the fastest commanded drive, plus what the fastest commanded turn moves a
+/// sensor beside the axis ([`Doubt::Uncommanded`]), and at least a share of the slowest
+/// drive every command asked for ([`Doubt::Unmoved`]). Nothing is checked while a command
+/// is unknown.
 #[inline(never)]
-pub fn check_flow_commanded(
-    flow: FlowDelta,
-    recent: &RecentCommands,
+pub fn check_flow_commanded(flow: FlowDelta, recent: &RecentCommands) -> Result<(), Doubt> {
+    match &recent.reach {
+        Some((_, limits)) => limits.drive(flow.forward_counts),
+        None => Ok(()),
+    }
+}
+
+/// Which readings do not follow the newest command alone ([`unfollowed`]).
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+pub struct Unfollowed {
+    /// The gyro's rate.
+    pub gyro: bool,
+    /// The flow's forward counts.
+    pub flow: bool,
+}
+
+impl Unfollowed {
+    /// Whether either does not: the pose may be behind the robot, or ahead of it.
+    pub fn any(&self) -> bool {
+        self.gyro || self.flow
+    }
+}
+
+/// Which of the gyro's `rate` and the flow's `flow` are outside what `command` alone
+/// allows ([`check_gyro_commanded`] and [`check_flow_commanded`] on the newest command
+/// rather than on the window's): the motion of a command not yet taken or of one just
+/// ended (the motors follow within the window), or a sensor fallen behind that the
+/// window cannot yet tell from them. A reading missing is outside nothing.
+pub fn unfollowed(
+    rate: Option<GyroRate>,
+    flow: Option<FlowDelta>,
+    command: &DriveCommand,
     tolerance: &CommandTolerance,
-) -> Result<(), Doubt> {
-    let Some((low, high, speed_mm_s)) = recent.bounds() else {
-        return Ok(());
-    };
-    let fastest_turn = high.max(-low).unsigned_abs();
-    // mdps x mm x 146 / 2^23 (1.74e-5): pi / 180 / 1000 rad/s per mdps, over a 0.1 s
-    // tick, in 100 um counts.
-    let turned = ((fastest_turn >> 6) * u32::from(tolerance.flow_offset_mm) * 146) >> 17;
-    let bound = ((speed_mm_s * u32::from(tolerance.drive_flow_per_1024)) >> 10)
-        .saturating_add(turned)
-        .saturating_add(u32::from(tolerance.flow_margin_counts));
-    if flow.forward_counts.unsigned_abs() > bound {
-        Err(Doubt::Uncommanded)
-    } else {
-        Ok(())
+) -> Unfollowed {
+    let limits = Limits::of(&Reach::of(command), tolerance);
+    Unfollowed {
+        gyro: rate.is_some_and(|r| limits.turn(r.rate_mdps).is_err()),
+        flow: flow.is_some_and(|f| limits.drive(f.forward_counts).is_err()),
     }
 }
 
@@ -266,13 +421,13 @@ mod tests {
     fn after(commands: &[Option<DriveCommand>]) -> RecentCommands {
         let mut recent = RecentCommands::default();
         for c in commands {
-            recent.push(*c);
+            recent.push(*c, &T);
         }
         recent
     }
 
     fn verdict(mdps: i32, commands: &[Option<DriveCommand>]) -> Result<(), Doubt> {
-        check_gyro_commanded(rate(mdps), &after(commands), &T)
+        check_gyro_commanded(rate(mdps), &after(commands))
     }
 
     #[test]
@@ -294,12 +449,112 @@ mod tests {
     #[test]
     fn a_slower_turn_is_slip_and_one_the_other_way_is_doubted() {
         let turning = [turn(31_500); 3];
-        // A spell of 30 % lost speed, or a stalled robot.
+        // A spell of 30 % lost speed.
         assert_eq!(verdict(22_050, &turning), Ok(()));
-        assert_eq!(verdict(0, &turning), Ok(()));
         // 1,568 + 500 the other way is noise and scale; beyond, a turn nobody asked for.
-        assert_eq!(verdict(-2_068, &turning), Ok(()));
-        assert_eq!(verdict(-2_069, &turning), Err(Doubt::Uncommanded));
+        let starting = [drive(0), drive(0), turn(31_500)];
+        assert_eq!(verdict(-2_068, &starting), Ok(()));
+        assert_eq!(verdict(-2_069, &starting), Err(Doubt::Uncommanded));
+    }
+
+    #[test]
+    fn far_short_of_every_command_in_the_window_is_unmoved() {
+        // Half of 31.5 deg/s less 0.5: a gyro fallen behind, or a robot stalled.
+        let turning = [turn(31_500); 3];
+        assert_eq!(verdict(15_250, &turning), Ok(()));
+        assert_eq!(verdict(15_249, &turning), Err(Doubt::Unmoved));
+        assert_eq!(verdict(0, &turning), Err(Doubt::Unmoved));
+        assert_eq!(verdict(-2_068, &turning), Err(Doubt::Unmoved));
+        assert_eq!(verdict(-15_250, &[turn(-31_500); 3]), Ok(()));
+        assert_eq!(verdict(-15_249, &[turn(-31_500); 3]), Err(Doubt::Unmoved));
+        // The slowest of the window's turns the same way is what must be read.
+        let slowing = [turn(31_500), turn(20_000), turn(31_500)];
+        assert_eq!(verdict(9_500, &slowing), Ok(()));
+        assert_eq!(verdict(9_499, &slowing), Err(Doubt::Unmoved));
+        // A turn just begun or ended within the window may not have been made yet.
+        for window in [
+            [drive(0), turn(31_500), turn(31_500)],
+            [turn(31_500), turn(31_500), drive(0)],
+            [turn(-31_500), turn(31_500), turn(31_500)],
+        ] {
+            assert_eq!(verdict(0, &window), Ok(()), "{window:?}");
+        }
+        // The flow: half of 86 counts less 6.
+        let driving = [drive(86); 3];
+        assert_eq!(forward(37, &driving), Ok(()));
+        assert_eq!(forward(36, &driving), Err(Doubt::Unmoved));
+        assert_eq!(forward(-37, &[drive(-86); 3]), Ok(()));
+        assert_eq!(forward(37, &[drive(-86); 3]), Err(Doubt::Unmoved));
+        assert_eq!(forward(0, &[drive(0), drive(86), drive(86)]), Ok(()));
+    }
+
+    #[test]
+    fn the_newest_command_alone_says_which_readings_do_not_follow_it() {
+        let command = |speed_mm_s, turn_mdps| DriveCommand {
+            speed_mm_s,
+            turn_mdps,
+        };
+        let rate = |mdps| Some(GyroRate { rate_mdps: mdps });
+        let flow = |counts| {
+            Some(FlowDelta {
+                forward_counts: counts,
+                right_counts: 0,
+            })
+        };
+        let off = |gyro, flow| Unfollowed { gyro, flow };
+        let turning = command(0, 31_500);
+        assert_eq!(
+            unfollowed(rate(15_250), flow(0), &turning, &T),
+            off(false, false)
+        );
+        assert_eq!(
+            unfollowed(rate(15_249), flow(0), &turning, &T),
+            off(true, false)
+        );
+        // A drive just ended: its counts are more than a turn on the spot allows.
+        assert_eq!(
+            unfollowed(rate(31_500), flow(86), &turning, &T),
+            off(false, true)
+        );
+        let driving = command(86, 0);
+        assert_eq!(
+            unfollowed(rate(0), flow(37), &driving, &T),
+            off(false, false)
+        );
+        assert_eq!(
+            unfollowed(rate(0), flow(36), &driving, &T),
+            off(false, true)
+        );
+        // A turn just ended: its rate is more than a straight drive allows.
+        assert_eq!(
+            unfollowed(rate(31_500), flow(86), &driving, &T),
+            off(true, false)
+        );
+        let both = command(86, 31_500);
+        assert_eq!(unfollowed(rate(0), flow(0), &both, &T), off(true, true));
+        // A reading missing is outside nothing; standing allows only standing.
+        assert_eq!(unfollowed(None, None, &both, &T), off(false, false));
+        let standing = command(0, 0);
+        assert_eq!(
+            unfollowed(rate(0), flow(0), &standing, &T),
+            off(false, false)
+        );
+        assert_eq!(
+            unfollowed(rate(0), flow(86), &standing, &T),
+            off(false, true)
+        );
+    }
+
+    #[test]
+    fn the_least_motion_is_what_every_command_of_the_window_asks_the_same_way() {
+        let least = |commands: &[Option<DriveCommand>]| after(commands).least();
+        assert_eq!(least(&[turn(31_500); 3]), (31_500, 0));
+        assert_eq!(least(&[drive(-86); 3]), (0, -86));
+        assert_eq!(least(&[drive(86), drive(40), drive(86)]), (0, 40));
+        assert_eq!(least(&[drive(86), drive(-40), drive(86)]), (0, 0));
+        assert_eq!(least(&[drive(86), drive(0), drive(86)]), (0, 0));
+        assert_eq!(least(&[drive(86), None, drive(86)]), (0, 0));
+        assert_eq!(least(&[drive(86), drive(86)]), (0, 0));
     }
 
     #[test]
@@ -350,7 +605,7 @@ mod tests {
             forward_counts: counts,
             right_counts: 0,
         };
-        check_flow_commanded(flow, &after(commands), &T)
+        check_flow_commanded(flow, &after(commands))
     }
 
     #[test]
@@ -363,7 +618,7 @@ mod tests {
         assert_eq!(forward(83, &driving), Ok(()));
         assert_eq!(forward(107, &driving), Err(Doubt::Uncommanded));
         // Slower is slip; backwards alike.
-        assert_eq!(forward(0, &driving), Ok(()));
+        assert_eq!(forward(60, &driving), Ok(()));
         assert_eq!(forward(-100, &[drive(-86); 3]), Ok(()));
         assert_eq!(forward(-101, &[drive(-86); 3]), Err(Doubt::Uncommanded));
     }
@@ -398,8 +653,12 @@ mod tests {
             verdict(-(1 << 20) - 3_067_381, &wild),
             Err(Doubt::Uncommanded)
         );
-        assert_eq!(verdict(3_067_380, &wild), Ok(()));
+        // The other way it is short of the turn, unless beyond the slack.
+        assert_eq!(verdict(3_067_380, &wild), Err(Doubt::Unmoved));
         assert_eq!(verdict(3_067_381, &wild), Err(Doubt::Uncommanded));
+        // Half of 1,048 deg/s less 0.5 is read.
+        assert_eq!(verdict(-(1 << 19) + 500, &wild), Ok(()));
+        assert_eq!(verdict(-(1 << 19) + 501, &wild), Err(Doubt::Unmoved));
         assert_eq!(verdict(i32::MIN, &wild), Err(Doubt::Uncommanded));
         assert_eq!(verdict(i32::MAX, &wild), Err(Doubt::Uncommanded));
         assert_eq!(
@@ -408,8 +667,10 @@ mod tests {
         );
         assert_eq!(verdict(1 << 20, &[turn(i32::MAX); 3]), Ok(()));
         // The flow: 65,536 mm/s x 1,126 / 1,024 + 1,048 deg/s 10 mm off the axis + 6.
-        assert_eq!(forward(72_064 + 182 + 6, &wild), Ok(()));
-        assert_eq!(forward(72_064 + 182 + 7, &wild), Err(Doubt::Uncommanded));
+        assert_eq!(forward(-72_064 - 182 - 6, &wild), Ok(()));
+        assert_eq!(forward(-72_064 - 182 - 7, &wild), Err(Doubt::Uncommanded));
+        assert_eq!(forward(-32_768 + 6, &wild), Ok(()));
+        assert_eq!(forward(-32_768 + 7, &wild), Err(Doubt::Unmoved));
         assert_eq!(forward(i32::MIN, &wild), Err(Doubt::Uncommanded));
         assert_eq!(
             verdict(i32::MIN, &[turn(i32::MAX); 3]),

@@ -11,7 +11,8 @@
 //! While the gyro or the flow is doubted the motion code holds the motion that needs it
 //! ([`crate::guard`]), so the core takes a doubted input as reading "still" from the
 //! tick after the doubt began; on that first tick the robot was still moving, and the
-//! last trusted reading stands in for it. A tag that disagrees with the estimate is the
+//! last trusted reading stands in for it (for a sensor found short of every command of
+//! the window, [`Doubt::Unmoved`], the commanded motion of the whole window). A tag that disagrees with the estimate is the
 //! estimator's gate's to refuse (`crate::estimator`); a depth range that disagrees with a
 //! tag's distance doubts the depth sensor until the two agree again
 //! ([`crate::tag_range`]). Where each frame arrives, the frames are held to each other
@@ -19,7 +20,8 @@
 //! again late, comes with the scan as its doubt ([`crate::SensorFrame::depth_doubt`]).
 
 use crate::commanded::{
-    check_flow_commanded, check_gyro_commanded, CommandTolerance, RecentCommands,
+    check_flow_commanded, check_gyro_commanded, unfollowed, CommandTolerance, RecentCommands,
+    Unfollowed, COMMAND_FRAMES,
 };
 use crate::depth_step::DepthStepConfig;
 use crate::frame::{DepthScan, DriveCommand, FlowDelta, GyroRate, BEAMS};
@@ -109,11 +111,14 @@ pub enum Doubt {
     Late,
     /// A turn the walls in the depth sensor's fan did not make ([`crate::wall_turn`]).
     UnseenTurn,
+    /// Far less turn or drive than every one of the last commands asked for
+    /// ([`crate::commanded`]): a sensor fallen behind, or a robot stalled.
+    Unmoved,
 }
 
 impl Doubt {
     /// Every doubt, in the order of [`Doubt::code`].
-    pub const ALL: [Doubt; 9] = [
+    pub const ALL: [Doubt; 10] = [
         Doubt::Missing,
         Doubt::Stuck,
         Doubt::Impossible,
@@ -123,9 +128,10 @@ impl Doubt {
         Doubt::DisagreesWithTag,
         Doubt::Late,
         Doubt::UnseenTurn,
+        Doubt::Unmoved,
     ];
 
-    /// A small number for the wire: 1 to 9 (0 is "trusted").
+    /// A small number for the wire: 1 to 10 (0 is "trusted").
     pub fn code(self) -> u8 {
         self as u8 + 1
     }
@@ -390,6 +396,9 @@ pub struct Judged {
     pub flow: Known<FlowDelta>,
     /// The trust after this tick.
     pub trust: Trust,
+    /// Which of the gyro and the flow read outside what the newest command allows
+    /// ([`crate::commanded::unfollowed`]): the pose may be behind the robot or ahead.
+    pub unfollowed: Unfollowed,
 }
 
 impl Judged {
@@ -399,6 +408,7 @@ impl Judged {
             gyro: gyro.map_or(Known::Lost, Known::Read),
             flow: flow.map_or(Known::Lost, Known::Read),
             trust: Trust::default(),
+            unfollowed: Unfollowed::default(),
         }
     }
 }
@@ -478,13 +488,13 @@ impl Plausibility {
         let turn_held = before.lacking(true, false).is_some();
         let drive_held = before.lacking(false, true).is_some();
         let after = config.trust_after_ticks;
-        self.commands.push(commanded);
+        self.commands.push(commanded, &config.command);
 
         let gyro_verdict = match gyro {
             Some(g) => {
                 let (last, repeats) = self.gyro_repeats.push(g);
                 check_gyro(g, last, repeats, turn_held, config)
-                    .and_then(|()| check_gyro_commanded(g, &self.commands, &config.command))
+                    .and_then(|()| check_gyro_commanded(g, &self.commands))
             }
             None if self.gyro_repeats.last.is_none() => Ok(()),
             None => Err(Doubt::Missing),
@@ -494,7 +504,7 @@ impl Plausibility {
             Some(f) => {
                 let repeats = self.flow_repeats.count(f);
                 check_flow(f, repeats, drive_held, config)
-                    .and_then(|()| check_flow_commanded(f, &self.commands, &config.command))
+                    .and_then(|()| check_flow_commanded(f, &self.commands))
             }
             None if self.flow_repeats.last.is_none() => Ok(()),
             None => Err(Doubt::Missing),
@@ -525,28 +535,56 @@ impl Plausibility {
 
         let trust = self.trust();
         let commands = &self.commands;
-        let gyro = known(
+        // Steady, the newest command allows what the window does, and the checks have
+        // held the readings to it.
+        let unfollowed = match commands.newest() {
+            Some(newest) if !commands.steady() => unfollowed(gyro, flow, &newest, &config.command),
+            _ => Unfollowed::default(),
+        };
+        // Short of a steady command over the whole window: its every tick was missed.
+        let (least_turn, least_speed) = commands.least();
+        let window = COMMAND_FRAMES as i32;
+        let gyro = match trust.gyro {
+            Some(Doubt::Unmoved) if !turn_held => Known::StandIn(GyroRate {
+                rate_mdps: least_turn.saturating_mul(window),
+            }),
+            _ => known(
+                gyro,
+                trust.gyro,
+                turn_held,
+                !unfollowed.gyro,
+                commands,
+                |c| c.turn_mdps == 0,
+                &mut self.moving_gyro,
+            ),
+        };
+        let flow = match trust.flow {
+            Some(Doubt::Unmoved) if !drive_held => Known::StandIn(FlowDelta {
+                forward_counts: least_speed.saturating_mul(window),
+                right_counts: 0,
+            }),
+            _ => known(
+                flow,
+                trust.flow,
+                drive_held,
+                !unfollowed.flow,
+                commands,
+                |c| c.speed_mm_s == 0,
+                &mut self.moving_flow,
+            ),
+        };
+        Judged {
             gyro,
-            trust.gyro,
-            turn_held,
-            commands,
-            |c| c.turn_mdps == 0,
-            &mut self.moving_gyro,
-        );
-        let flow = known(
             flow,
-            trust.flow,
-            drive_held,
-            commands,
-            |c| c.speed_mm_s == 0,
-            &mut self.moving_flow,
-        );
-        Judged { gyro, flow, trust }
+            trust,
+            unfollowed,
+        }
     }
 }
 
-/// What to integrate of an input: its reading when trusted (or absent unheard: lost);
-/// when doubted, still if the robot was held, else the reading of the last trusted tick
+/// What to integrate of an input: its reading when trusted (or absent unheard: lost),
+/// only as a guess when it does not `follow` the newest command (the robot may have made
+/// the motion, a sensor behind, or not, a command not yet taken); when doubted, still if the robot was held, else the reading of the last trusted tick
 /// on which it was not held: a held motion resumes as it was when it stopped. That
 /// reading is as good as one while the `commands` are steady and the same as when it was
 /// read; when they changed of late (a turn ending, a drive beginning) it only stands in.
@@ -557,11 +595,13 @@ fn known<T: Copy>(
     reading: Option<T>,
     doubt: Option<Doubt>,
     held: bool,
+    follows: bool,
     commands: &RecentCommands,
     idle: impl Fn(&DriveCommand) -> bool,
     moving: &mut Option<(T, u8)>,
 ) -> Known<T> {
     match (doubt, reading) {
+        (None, Some(r)) if !follows => Known::StandIn(r),
         (None, Some(r)) => {
             if !held {
                 *moving = Some((r, commands.changes()));
@@ -773,6 +813,48 @@ mod tests {
         // And with the commands not known.
         let lost = turning().judge(None, None, None, None, &C);
         assert_eq!(lost.gyro, Known::StandIn(rate(31_500)));
+    }
+
+    #[test]
+    fn a_sensor_behind_its_command_stands_in_for_the_window_it_missed() {
+        // Standing, then a drive the flow reads nothing of, three ticks late: the robot
+        // is not held in the first two, their scans are not vouched for, and at the
+        // third every one of the window's commands asked for a drive.
+        let still = Some(DriveCommand {
+            speed_mm_s: 0,
+            turn_mdps: 0,
+        });
+        let mut p = Plausibility::default();
+        for i in 0..4 {
+            let j = p.judge(Some(rate(i)), Some(flow(i % 2, 0)), None, still, &C);
+            assert!(!j.unfollowed.any());
+        }
+        // Short of the drive, the readings are trusted but only guesses.
+        for i in 0..2 {
+            let j = p.judge(Some(rate(i)), Some(flow(i, 0)), None, Some(DRIVE), &C);
+            assert_eq!(j.trust, Trust::default());
+            assert_eq!((j.unfollowed.gyro, j.unfollowed.flow), (false, true));
+            assert_eq!(j.flow, Known::StandIn(flow(i, 0)));
+            assert_eq!(j.gyro, Known::Read(rate(i)));
+        }
+        let j = p.judge(Some(rate(5)), Some(flow(1, 0)), None, Some(DRIVE), &C);
+        assert_eq!(j.trust.flow, Some(Doubt::Unmoved));
+        assert_eq!(j.flow, Known::StandIn(flow(3 * 86, 0)));
+        assert_eq!(j.gyro, Known::Read(rate(5)));
+        // From the next tick the drive is held: the flow's late counts are no motion.
+        let j = p.judge(Some(rate(6)), Some(flow(86, 0)), None, Some(DRIVE), &C);
+        assert_eq!(j.flow, Known::Still);
+        // The gyro alike, in a turn.
+        let mut p = Plausibility::default();
+        for i in 0..4 {
+            p.judge(Some(rate(i)), Some(flow(i % 2, 0)), None, still, &C);
+        }
+        for i in 0..2 {
+            p.judge(Some(rate(i)), Some(flow(i % 2, 0)), None, Some(TURN), &C);
+        }
+        let j = p.judge(Some(rate(2)), Some(flow(0, 0)), None, Some(TURN), &C);
+        assert_eq!(j.trust.gyro, Some(Doubt::Unmoved));
+        assert_eq!(j.gyro, Known::StandIn(rate(3 * 31_500)));
     }
 
     #[test]

@@ -530,7 +530,8 @@ impl<const W: usize, const H: usize> Slam<W, H> {
 
         // A scan goes in only at a pose the core can vouch for (its odometry trusted, or
         // a pose from outside) and only if the scan itself is believed.
-        let vouched = trust.depth.is_none() && (frame.external_pose.is_some() || trust.pose());
+        let vouched = trust.depth.is_none()
+            && (frame.external_pose.is_some() || (trust.pose() && !judged.unfollowed.any()));
         // The scan goes in at the pose of its own moment (after any fix has moved the
         // remembered poses); one older than the history reaches is as good as none.
         // The history is consulted only when there is a scan to place.

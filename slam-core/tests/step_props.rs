@@ -77,7 +77,9 @@ fn frame() -> impl Strategy<Value = SensorFrame> {
                     depth: depth.map(|ranges_mm| DepthScan { ranges_mm }),
                     depth_age_us,
                     // Any verdict of the depth task's, none included.
-                    depth_doubt: Doubt::from_code((depth_age_us % 10) as u8),
+                    depth_doubt: Doubt::from_code(
+                        (depth_age_us % (Doubt::ALL.len() as u32 + 1)) as u8,
+                    ),
                     tags,
                     tags_age_us,
                     external_pose,

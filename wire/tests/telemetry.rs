@@ -381,7 +381,8 @@ fn inputs_frame_fixture() {
     let raw = [0xBA, 5, 1, 2, 3, 0, 0, 0, 0, 8, 0, 0, 0, 0];
     assert_eq!(frame(&m), sealed(&raw));
     assert_eq!(decode_all(&sealed(&raw)).0, std::vec![Ok(m)]);
-    let raw = [0xBA, 5, 1, 2, 3, 0, 0, 0, 0, 10, 0, 0, 0, 0];
+    assert_eq!(Doubt::ALL.len(), 10);
+    let raw = [0xBA, 5, 1, 2, 3, 0, 0, 0, 0, 11, 0, 0, 0, 0];
     assert_eq!(
         decode_all(&sealed(&raw)).0,
         std::vec![Err(FrameError::Body)]
@@ -1040,7 +1041,7 @@ proptest! {
                 gyro: present[1].then_some(GyroRate { rate_mdps: v[5] as i32 }),
                 depth: present[2].then_some(DepthScan { ranges_mm: ranges }),
                 depth_age_us: v[6],
-                depth_doubt: Doubt::from_code((v[6] % 9) as u8),
+                depth_doubt: Doubt::from_code((v[6] % (Doubt::ALL.len() as u32 + 1)) as u8),
                 tags: detections,
                 tags_age_us: v[7],
                 external_pose: present[3].then_some(Pose {
