@@ -402,6 +402,12 @@ pub struct Judged {
 }
 
 impl Judged {
+    /// Whether the tick's motion is a guess: a reading that stands in, or none.
+    pub fn guessed(&self) -> bool {
+        matches!(self.gyro, Known::StandIn(_) | Known::Lost)
+            || matches!(self.flow, Known::StandIn(_) | Known::Lost)
+    }
+
     /// Every reading believed, as with no checks at all.
     pub fn believing(gyro: Option<GyroRate>, flow: Option<FlowDelta>) -> Judged {
         Judged {

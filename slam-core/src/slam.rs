@@ -501,6 +501,12 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             None => Judged::believing(frame.gyro, frame.flow),
         };
         let trust = judged.trust;
+        // A tick whose motion is a guess: what corrects the pose next mends the guess, not
+        // the poses of the scans the sweep holds.
+        #[cfg(feature = "matching")]
+        if judged.guessed() {
+            self.sweep.anchor();
+        }
         self.counters.gyro_doubted += trust.gyro.is_some() as u32;
         self.counters.flow_doubted += trust.flow.is_some() as u32;
         self.counters.depth_doubted += trust.depth.is_some() as u32;

@@ -5,7 +5,8 @@
 //! other by the odometry, see a corner or two walls. The poses stored are the believed
 //! ones; only their differences matter (the sweep is matched relative to its newest pose),
 //! and a correction that moves the believed past moves these too ([`Sweep::carry`]), so
-//! those differences stay the odometry's.
+//! those differences stay the odometry's; but not the scans held when a tick's motion was
+//! guessed ([`Sweep::anchor`]), whose poses the guess's error never touched.
 
 use crate::angle::Angle;
 use crate::frame::{DepthScan, BEAMS};
@@ -57,6 +58,9 @@ pub struct Sweep<const N: usize> {
     pending: Option<RigidMotion>,
     /// Scans pushed since `pending` was recorded: the newest ones, already in its frame.
     fresh: usize,
+    /// Scans pushed since [`Sweep::anchor`] (at most `N`): the older ones stay where they
+    /// are.
+    since_anchor: usize,
 }
 
 impl<const N: usize> Default for Sweep<N> {
@@ -73,6 +77,7 @@ impl<const N: usize> Sweep<N> {
             next: 0,
             pending: None,
             fresh: 0,
+            since_anchor: N,
         }
     }
 
@@ -154,6 +159,9 @@ impl<const N: usize> Sweep<N> {
         }
         // A compare, not `%`: the M0+ has no divider.
         self.next = if self.next + 1 >= N { 0 } else { self.next + 1 };
+        if self.since_anchor < N {
+            self.since_anchor += 1;
+        }
         if self.pending.is_some() {
             self.fresh += 1;
             if self.fresh >= N {
@@ -191,12 +199,20 @@ impl<const N: usize> Sweep<N> {
         self.fresh = 0;
     }
 
+    /// Leaves the scans held where they are whatever corrects the pose from now on: the
+    /// pose is about to become a guess (a tick's motion not read), and a correction then
+    /// mends the guess, not the poses these scans were taken at.
+    pub fn anchor(&mut self) {
+        self.settle();
+        self.since_anchor = 0;
+    }
+
     /// Applies the recorded correction to the stored poses it concerns.
     pub fn settle(&mut self) {
         let Some(motion) = self.pending.take() else {
             return;
         };
-        for rank in 0..N.saturating_sub(self.fresh) {
+        for rank in N.saturating_sub(self.since_anchor)..N.saturating_sub(self.fresh) {
             let at = self.slot_of(rank);
             if let Some(Some(s)) = self.scans.get_mut(at) {
                 s.pose = motion.apply(&s.pose);
@@ -219,7 +235,9 @@ impl<const N: usize> Sweep<N> {
     /// came after the pose was stored.
     fn carried(&self, rank: usize, pose: &Pose) -> Pose {
         match &self.pending {
-            Some(motion) if rank + self.fresh < N => motion.apply(pose),
+            Some(motion) if rank + self.fresh < N && rank + self.since_anchor >= N => {
+                motion.apply(pose)
+            }
             _ => *pose,
         }
     }
@@ -285,9 +303,10 @@ mod tests {
     use crate::lcg::Lcg;
     use crate::pose::{Pose, RigidMotion};
 
-    /// Pushes, corrections, settles, scans expiring and reads in a random order: every
-    /// pose read out of a sweep that records its corrections is the pose of one that
-    /// applies each at once, and a scan expires, oldest first, once it is old enough.
+    /// Pushes, corrections, anchors, settles, scans expiring and reads in a random order:
+    /// every pose read out of a sweep that records its corrections is the pose of one that
+    /// applies each at once to every scan pushed since the last anchor, and a scan
+    /// expires, oldest first, once it is old enough.
     #[test]
     fn a_recorded_correction_reads_as_one_applied_at_once() {
         const N: usize = 4;
@@ -300,24 +319,29 @@ mod tests {
             )
         };
         let mut lazy: Sweep<N> = Sweep::new();
-        // Oldest first, each correction applied to every scan at once.
-        let mut eager: Vec<SweepScan> = Vec::new();
-        for step in 0..2000u32 {
+        // Oldest first, each correction applied at once to every scan not anchored.
+        let mut eager: Vec<(SweepScan, bool)> = Vec::new();
+        let (mut anchors, mut anchored_carries) = (0, 0);
+        for step in 0..4000u32 {
             match rng.within(4) {
                 -4..=-1 => {
                     let (p, scan) = (pose(&mut rng), DepthScan::default());
-                    let expected = (eager.len() == N).then(|| eager.remove(0));
-                    eager.push(SweepScan {
+                    let expected = (eager.len() == N).then(|| eager.remove(0).0);
+                    let s = SweepScan {
                         tick: step,
                         pose: p,
                         scan,
-                    });
+                    };
+                    eager.push((s, false));
                     assert_eq!(lazy.push(step, p, scan), expected, "step {step}");
                 }
                 0 | 1 => {
                     let motion = RigidMotion::carrying(&pose(&mut rng), &pose(&mut rng));
-                    for s in &mut eager {
-                        s.pose = motion.apply(&s.pose);
+                    anchored_carries += eager.iter().any(|(_, a)| *a) as u32;
+                    for (s, anchored) in &mut eager {
+                        if !*anchored {
+                            s.pose = motion.apply(&s.pose);
+                        }
                     }
                     lazy.carry(&motion);
                 }
@@ -327,24 +351,36 @@ mod tests {
                     let old_enough = |s: &SweepScan| step.wrapping_sub(s.tick) >= max_age;
                     let expected = eager
                         .first()
-                        .filter(|s| old_enough(s))
+                        .filter(|(s, _)| old_enough(s))
                         .is_some()
-                        .then(|| eager.remove(0));
+                        .then(|| eager.remove(0).0);
                     assert_eq!(lazy.expired(step, max_age), expected, "step {step}");
                 }
                 _ if rng.within(10) == 0 => {
                     eager.clear();
                     lazy.clear();
                 }
+                _ if rng.within(2) == 0 => {
+                    for (_, anchored) in &mut eager {
+                        *anchored = true;
+                    }
+                    lazy.anchor();
+                    anchors += 1;
+                }
                 _ => {}
             }
             let read: Vec<Pose> = lazy.oldest_first().map(|(p, _)| p).collect();
-            let expected: Vec<Pose> = eager.iter().map(|s| s.pose).collect();
+            let expected: Vec<Pose> = eager.iter().map(|(s, _)| s.pose).collect();
             assert_eq!(read, expected, "step {step}");
-            assert_eq!(lazy.newest(), eager.last().copied(), "step {step}");
-            let leaving = (eager.len() == N).then(|| eager[0].pose);
+            let newest = eager.last().map(|(s, _)| *s);
+            assert_eq!(lazy.newest(), newest, "step {step}");
+            let leaving = (eager.len() == N).then(|| eager[0].0.pose);
             assert_eq!(lazy.leaving().map(|(_, p)| p), leaving, "step {step}");
         }
+        assert!(
+            anchors > 50 && anchored_carries > 50,
+            "{anchors} {anchored_carries}"
+        );
     }
 
     /// `a * f / 2^16` rounded half away from zero, in 64 bits.
