@@ -22,8 +22,9 @@
 //! leaves a new command a tick or two to take, so such a sensor is found out only on the
 //! window's last tick: the core then stands in the commanded motion for the whole window
 //! ([`crate::plausible`]). Before that, and while a command just ended still bounds the
-//! window, a reading outside what the newest command alone allows ([`unfollowed`]) is
-//! taken as a guess, and no scan is vouched for on its tick.
+//! window, a reading outside what the newest command alone allows ([`unfollowed`]) a
+//! frame after it changed ([`RecentCommands::taken`]: on the first the motors may not
+//! have followed it at all) is taken as a guess, and no scan is vouched for on its tick.
 
 use crate::frame::{DriveCommand, FlowDelta, GyroRate};
 use crate::plausible::Doubt;
@@ -262,6 +263,8 @@ pub struct RecentCommands {
     changes: u8,
     /// [`RecentCommands::steady`], worked out once a push.
     steady: bool,
+    /// [`RecentCommands::taken`], worked out once a push.
+    taken: bool,
 }
 
 impl RecentCommands {
@@ -272,7 +275,9 @@ impl RecentCommands {
         if self.steady && command == self.newest() {
             return;
         }
-        if command != self.newest() {
+        let before = self.newest();
+        self.taken = command.is_some() && command == before;
+        if command != before {
             self.changes = self.changes.wrapping_add(1);
         }
         let at = usize::from(self.next);
@@ -293,6 +298,14 @@ impl RecentCommands {
     /// it moved a few ticks ago.
     pub fn steady(&self) -> bool {
         self.steady
+    }
+
+    /// Whether the newest command was in force as the frame before ended too: it has had
+    /// a whole interval to take. On the first frame after a change the motors may have
+    /// followed the new command for all of the interval, part of it or none (the
+    /// firmware's motion task changes it as the tick ends).
+    pub fn taken(&self) -> bool {
+        self.taken
     }
 
     /// How many times the command has changed, wrapping: the same count, the same
@@ -377,9 +390,9 @@ impl Unfollowed {
 
 /// Which of the gyro's `rate` and the flow's `flow` are outside what `command` alone
 /// allows ([`check_gyro_commanded`] and [`check_flow_commanded`] on the newest command
-/// rather than on the window's): the motion of a command not yet taken or of one just
-/// ended (the motors follow within the window), or a sensor fallen behind that the
-/// window cannot yet tell from them. A reading missing is outside nothing.
+/// rather than on the window's): a frame after the command changed, the motion of one
+/// just ended, or a sensor fallen behind that the window cannot yet tell from it. A
+/// reading missing is outside nothing.
 pub fn unfollowed(
     rate: Option<GyroRate>,
     flow: Option<FlowDelta>,
@@ -555,6 +568,16 @@ mod tests {
         assert_eq!(least(&[drive(86), drive(0), drive(86)]), (0, 0));
         assert_eq!(least(&[drive(86), None, drive(86)]), (0, 0));
         assert_eq!(least(&[drive(86), drive(86)]), (0, 0));
+    }
+
+    #[test]
+    fn a_command_is_taken_once_it_was_in_force_as_two_frames_ended() {
+        assert!(!after(&[drive(86)]).taken());
+        assert!(!after(&[drive(0), drive(86)]).taken());
+        assert!(after(&[drive(0), drive(86), drive(86)]).taken());
+        assert!(after(&[drive(86); 5]).taken());
+        assert!(!after(&[None, None]).taken());
+        assert!(!after(&[drive(86), drive(86), turn(31_500)]).taken());
     }
 
     #[test]

@@ -396,8 +396,9 @@ pub struct Judged {
     pub flow: Known<FlowDelta>,
     /// The trust after this tick.
     pub trust: Trust,
-    /// Which of the gyro and the flow read outside what the newest command allows
-    /// ([`crate::commanded::unfollowed`]): the pose may be behind the robot or ahead.
+    /// Which of the gyro and the flow read outside what the newest command allows a frame
+    /// after it changed ([`crate::commanded::unfollowed`]): the pose may be behind the
+    /// robot or ahead.
     pub unfollowed: Unfollowed,
 }
 
@@ -543,9 +544,11 @@ impl Plausibility {
         let commands = &self.commands;
         // Steady, the newest command allows what the window does, and the checks have
         // held the readings to it.
-        let unfollowed = match commands.newest() {
-            Some(newest) if !commands.steady() => unfollowed(gyro, flow, &newest, &config.command),
-            _ => Unfollowed::default(),
+        let (unfollowed, gyro_following, flow_following) = if commands.steady() {
+            let follows = Following::Follows;
+            (Unfollowed::default(), follows, follows)
+        } else {
+            following(gyro, flow, commands, &config.command)
         };
         // Short of a steady command over the whole window: its every tick was missed.
         let (least_turn, least_speed) = commands.least();
@@ -558,7 +561,7 @@ impl Plausibility {
                 gyro,
                 trust.gyro,
                 turn_held,
-                !unfollowed.gyro,
+                gyro_following,
                 commands,
                 |c| c.turn_mdps == 0,
                 &mut self.moving_gyro,
@@ -573,7 +576,7 @@ impl Plausibility {
                 flow,
                 trust.flow,
                 drive_held,
-                !unfollowed.flow,
+                flow_following,
                 commands,
                 |c| c.speed_mm_s == 0,
                 &mut self.moving_flow,
@@ -588,9 +591,51 @@ impl Plausibility {
     }
 }
 
+/// How a trusted reading stands to the newest command.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum Following {
+    /// Within what it allows: the robot's motion, and the one a doubt to come may stand
+    /// in with.
+    Follows,
+    /// On the first frame after it changed: the motion, but no reference for the new
+    /// command's.
+    Changing,
+    /// Outside what it allows a frame after it changed ([`unfollowed`]): a guess.
+    Astray,
+}
+
+/// How the gyro's and the flow's readings stand to the newest of `commands`, which are
+/// not steady: on the first frame after a change the motors may not have followed it at
+/// all; a frame later a reading outside what it allows ([`unfollowed`]) strays. Commands
+/// not known check nothing, as in the checks. Out of line and cold: only while the
+/// commands change.
+#[cold]
+#[inline(never)]
+fn following(
+    gyro: Option<GyroRate>,
+    flow: Option<FlowDelta>,
+    commands: &RecentCommands,
+    tolerance: &CommandTolerance,
+) -> (Unfollowed, Following, Following) {
+    let follows = Following::Follows;
+    match commands.newest() {
+        None => (Unfollowed::default(), follows, follows),
+        Some(_) if !commands.taken() => {
+            let changing = Following::Changing;
+            (Unfollowed::default(), changing, changing)
+        }
+        Some(newest) => {
+            let off = unfollowed(gyro, flow, &newest, tolerance);
+            let of = |astray: bool| if astray { Following::Astray } else { follows };
+            (off, of(off.gyro), of(off.flow))
+        }
+    }
+}
+
 /// What to integrate of an input: its reading when trusted (or absent unheard: lost),
-/// only as a guess when it does not `follow` the newest command (the robot may have made
-/// the motion, a sensor behind, or not, a command not yet taken); when doubted, still if the robot was held, else the reading of the last trusted tick
+/// only as a guess when it strays from the newest command a frame after it changed (the
+/// robot may have made the motion, a sensor behind, or not), and no reference for a
+/// doubt to come on the frame it changed; when doubted, still if the robot was held, else the reading of the last trusted tick
 /// on which it was not held: a held motion resumes as it was when it stopped. That
 /// reading is as good as one while the `commands` are steady and the same as when it was
 /// read; when they changed of late (a turn ending, a drive beginning) it only stands in.
@@ -601,13 +646,14 @@ fn known<T: Copy>(
     reading: Option<T>,
     doubt: Option<Doubt>,
     held: bool,
-    follows: bool,
+    following: Following,
     commands: &RecentCommands,
     idle: impl Fn(&DriveCommand) -> bool,
     moving: &mut Option<(T, u8)>,
 ) -> Known<T> {
     match (doubt, reading) {
-        (None, Some(r)) if !follows => Known::StandIn(r),
+        (None, Some(r)) if following == Following::Astray => Known::StandIn(r),
+        (None, Some(r)) if following == Following::Changing => Known::Read(r),
         (None, Some(r)) => {
             if !held {
                 *moving = Some((r, commands.changes()));
@@ -835,14 +881,16 @@ mod tests {
             let j = p.judge(Some(rate(i)), Some(flow(i % 2, 0)), None, still, &C);
             assert!(!j.unfollowed.any());
         }
-        // Short of the drive, the readings are trusted but only guesses.
-        for i in 0..2 {
-            let j = p.judge(Some(rate(i)), Some(flow(i, 0)), None, Some(DRIVE), &C);
-            assert_eq!(j.trust, Trust::default());
-            assert_eq!((j.unfollowed.gyro, j.unfollowed.flow), (false, true));
-            assert_eq!(j.flow, Known::StandIn(flow(i, 0)));
-            assert_eq!(j.gyro, Known::Read(rate(i)));
-        }
+        // On the first frame of the drive the motors may not have followed it yet; a
+        // frame later a reading short of it is trusted but only a guess.
+        let j = p.judge(Some(rate(0)), Some(flow(0, 0)), None, Some(DRIVE), &C);
+        assert_eq!((j.trust, j.unfollowed.any()), (Trust::default(), false));
+        assert_eq!(j.flow, Known::Read(flow(0, 0)));
+        let j = p.judge(Some(rate(1)), Some(flow(1, 0)), None, Some(DRIVE), &C);
+        assert_eq!(j.trust, Trust::default());
+        assert_eq!((j.unfollowed.gyro, j.unfollowed.flow), (false, true));
+        assert_eq!(j.flow, Known::StandIn(flow(1, 0)));
+        assert_eq!(j.gyro, Known::Read(rate(1)));
         let j = p.judge(Some(rate(5)), Some(flow(1, 0)), None, Some(DRIVE), &C);
         assert_eq!(j.trust.flow, Some(Doubt::Unmoved));
         assert_eq!(j.flow, Known::StandIn(flow(3 * 86, 0)));
