@@ -9,15 +9,16 @@
 //! trusted again after [`PlausibleConfig::trust_after_ticks`] plausible readings in a row.
 //!
 //! While the gyro or the flow is doubted the motion code holds the motion that needs it
-//! ([`crate::guard`]), so the core takes a doubted input as reading "still" from the
-//! tick after the doubt began; on that first tick the robot was still moving, and the
-//! last trusted reading stands in for it (for a sensor found short of every command of
-//! the window, [`Doubt::Unmoved`], the commanded motion of the whole window). A tag that disagrees with the estimate is the
-//! estimator's gate's to refuse (`crate::estimator`); a depth range that disagrees with a
-//! tag's distance doubts the depth sensor until the two agree again
-//! ([`crate::tag_range`]). Where each frame arrives, the frames are held to each other
-//! ([`crate::depth_step`]): every range stepping the same way at once, or a frame given
-//! again late, comes with the scan as its doubt ([`crate::SensorFrame::depth_doubt`]).
+//! ([`crate::guard`]), so the core takes a doubted input as reading "still" from the tick
+//! after the doubt began; on that first tick the robot was still moving, and the last
+//! trusted reading stands in for it (for a sensor found short of every command of the
+//! window, [`Doubt::Unmoved`], the commanded motion of the whole window). A tag that
+//! disagrees with the estimate is the estimator's gate's to refuse (`crate::estimator`);
+//! a depth range that disagrees with a tag's distance doubts the depth sensor until the
+//! two agree again ([`crate::tag_range`]). Where each frame arrives, the frames are held
+//! to each other ([`crate::depth_step`]): every range stepping the same way at once, or a
+//! frame given again late, comes with the scan as its doubt
+//! ([`crate::SensorFrame::depth_doubt`]).
 
 use crate::commanded::{
     check_flow_commanded, check_gyro_commanded, unfollowed, CommandTolerance, RecentCommands,
@@ -634,13 +635,14 @@ fn following(
 
 /// What to integrate of an input: its reading when trusted (or absent unheard: lost),
 /// only as a guess when it strays from the newest command a frame after it changed (the
-/// robot may have made the motion, a sensor behind, or not), and no reference for a
-/// doubt to come on the frame it changed; when doubted, still if the robot was held, else the reading of the last trusted tick
-/// on which it was not held: a held motion resumes as it was when it stopped. That
-/// reading is as good as one while the `commands` are steady and the same as when it was
-/// read; when they changed of late (a turn ending, a drive beginning) it only stands in.
-/// Steady at a command that does not move the robot this way (`idle`: a turn on the spot
-/// for the flow), the robot is still this way, whatever the reading was.
+/// robot may have made the motion, a sensor behind, or not), and no reference for a doubt
+/// to come on the frame it changed; when doubted, still if the robot was held, else the
+/// reading of the last trusted tick on which it was not held: a held motion resumes as it
+/// was when it stopped. That reading is as good as one while the `commands` are steady
+/// and the same as when it was read; when they changed of late (a turn ending, a drive
+/// beginning) it only stands in. Steady at a command that does not move the robot this
+/// way (`idle`: a turn on the spot for the flow), the robot is still this way, whatever
+/// the reading was.
 #[inline(never)]
 fn known<T: Copy>(
     reading: Option<T>,
@@ -870,8 +872,8 @@ mod tests {
     #[test]
     fn a_sensor_behind_its_command_stands_in_for_the_window_it_missed() {
         // Standing, then a drive the flow reads nothing of, three ticks late: the robot
-        // is not held in the first two, their scans are not vouched for, and at the
-        // third every one of the window's commands asked for a drive.
+        // is not held in the first two, the second's scan is not vouched for, and at
+        // the third every one of the window's commands asked for a drive.
         let still = Some(DriveCommand {
             speed_mm_s: 0,
             turn_mdps: 0,
