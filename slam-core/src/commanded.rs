@@ -271,11 +271,11 @@ impl RecentCommands {
     /// Takes a frame's command (`None`: not known), in place of the oldest; the readings
     /// are then held to the commands within `tolerance`.
     pub fn push(&mut self, command: Option<DriveCommand>, tolerance: &CommandTolerance) {
+        let before = self.newest();
         // Steady and the same again: every slot already holds it.
-        if self.steady && command == self.newest() {
+        if self.steady && command == before {
             return;
         }
-        let before = self.newest();
         self.taken = command.is_some() && command == before;
         if command != before {
             self.changes = self.changes.wrapping_add(1);
