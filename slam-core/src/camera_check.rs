@@ -296,11 +296,11 @@ impl CameraCheck {
     /// Whether a sighting of tag `id` the gate refused, its bearing innovation in
     /// `refused_by` ([`crate::Estimator::refused_by`]), moved from the run's first
     /// refused sighting, when that was of the same tag, further than the estimate can
-    /// have drifted since ([`CameraCheck::tick`]). A heading gone off holds the innovation still as the
-    /// robot turns; a camera putting its tags a few pixels aside does not, since a
-    /// column's bearing is not proportional to it (a lie of 40 pixels is 23 degrees at
-    /// the picture's centre and 8 at its edge). The run's first refused sighting is
-    /// remembered here.
+    /// have drifted since ([`CameraCheck::tick`]). A heading gone off holds the innovation
+    /// still as the robot turns; a camera putting its tags a few pixels aside does not,
+    /// since a column's bearing is not proportional to it (a lie of 40 pixels is 23
+    /// degrees at the picture's centre and 8 at its edge). The run's first refused
+    /// sighting is remembered here.
     pub fn creeps(&mut self, id: u16, refused_by: (i32, i32)) -> bool {
         let bearing = refused_by.0;
         match self.first {

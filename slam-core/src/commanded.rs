@@ -514,48 +514,31 @@ mod tests {
                 right_counts: 0,
             })
         };
-        let off = |gyro, flow| Unfollowed { gyro, flow };
-        let turning = command(0, 31_500);
-        assert_eq!(
-            unfollowed(rate(15_250), flow(0), &turning, &T),
-            off(false, false)
-        );
-        assert_eq!(
-            unfollowed(rate(15_249), flow(0), &turning, &T),
-            off(true, false)
-        );
-        // A drive just ended: its counts are more than a turn on the spot allows.
-        assert_eq!(
-            unfollowed(rate(31_500), flow(86), &turning, &T),
-            off(false, true)
-        );
-        let driving = command(86, 0);
-        assert_eq!(
-            unfollowed(rate(0), flow(37), &driving, &T),
-            off(false, false)
-        );
-        assert_eq!(
-            unfollowed(rate(0), flow(36), &driving, &T),
-            off(false, true)
-        );
-        // A turn just ended: its rate is more than a straight drive allows.
-        assert_eq!(
-            unfollowed(rate(31_500), flow(86), &driving, &T),
-            off(true, false)
-        );
-        let both = command(86, 31_500);
-        assert_eq!(unfollowed(rate(0), flow(0), &both, &T), off(true, true));
-        // A reading missing is outside nothing; standing allows only standing.
-        assert_eq!(unfollowed(None, None, &both, &T), off(false, false));
-        let standing = command(0, 0);
-        assert_eq!(
-            unfollowed(rate(0), flow(0), &standing, &T),
-            off(false, false)
-        );
-        assert_eq!(
-            unfollowed(rate(0), flow(86), &standing, &T),
-            off(false, true)
-        );
+        let (turning, driving) = (command(0, 31_500), command(86, 0));
+        let (both, standing) = (command(86, 31_500), command(0, 0));
+        // (rate, flow, command, gyro astray, flow astray)
+        let cases = [
+            (rate(15_250), flow(0), turning, false, false),
+            (rate(15_249), flow(0), turning, true, false),
+            // A drive just ended: its counts are more than a turn on the spot allows.
+            (rate(31_500), flow(86), turning, false, true),
+            (rate(0), flow(37), driving, false, false),
+            (rate(0), flow(36), driving, false, true),
+            // A turn just ended: its rate is more than a straight drive allows.
+            (rate(31_500), flow(86), driving, true, false),
+            (rate(0), flow(0), both, true, true),
+            // A reading missing is outside nothing; standing allows only standing.
+            (None, None, both, false, false),
+            (rate(0), flow(0), standing, false, false),
+            (rate(0), flow(86), standing, false, true),
+        ];
+        for (r, f, c, gyro_astray, flow_astray) in cases {
+            let off = Unfollowed {
+                gyro: gyro_astray,
+                flow: flow_astray,
+            };
+            assert_eq!(unfollowed(r, f, &c, &T), off, "{r:?} {f:?} {c:?}");
+        }
     }
 
     #[test]
