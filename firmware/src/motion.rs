@@ -41,8 +41,10 @@
 //! drive, so that the first report of a drive has already judged it. A drive the guard
 //! stops coasts at once and the route goes on with its next leg (counted in
 //! `guard_stops`); turns on the spot sweep nothing new and are never stopped. A guard
-//! hold (an input the motion needs is doubted by the core's plausibility checks) coasts
-//! and keeps the leg: a drive's clock and a turn's time limit stop until it lifts.
+//! hold (an input the motion needs is doubted by the core's plausibility checks, or, for
+//! a drive, the depth sensor shows nothing ahead as it is) coasts and keeps the leg: a
+//! drive's clock and a turn's time limit stop until it lifts. Each hold is logged as it
+//! begins, with the input it lacks.
 
 use drivers::motors::{HBridge, MotorConfig, Motors, PerMille};
 use embassy_rp::pwm::{self, Pwm, PwmError, PwmOutput};
@@ -390,6 +392,11 @@ impl Pilot<'_> {
     fn listen(&mut self) {
         if let Some(report) = self.reports.try_changed() {
             self.last_report = Instant::now();
+            if let Decision::Hold(input) = report.guard {
+                if self.guard != report.guard {
+                    defmt::warn!("motion: guard holds, {} lacking", input);
+                }
+            }
             self.guard = report.guard;
         }
     }

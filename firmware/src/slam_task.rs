@@ -350,7 +350,7 @@ pub async fn slam_task(
             &GUARD,
             &report.pose,
             slam.map(),
-            frame.depth.as_ref(),
+            frame.sight(),
             &report.trust,
             command,
         );

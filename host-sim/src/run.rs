@@ -540,7 +540,7 @@ fn run_sized<const W: usize, const H: usize>(
                 &guard,
                 &report.pose,
                 slam.map(),
-                frame.depth.as_ref(),
+                frame.sight(),
                 &report.trust,
                 drive_command(&command),
             );

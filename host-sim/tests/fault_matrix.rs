@@ -289,3 +289,16 @@ fn a_late_gyro_or_flow_is_found_out_as_the_commands_change() {
         one_case_meets_the_targets(world, pose, start_s, case);
     }
 }
+
+/// In the two-wall room from 25 s the robot drives at the right wall, its scans clearing a
+/// cell drawn black before, near the far corner. A depth sensor gone blind there
+/// (no frames, the same frame again, ranges it cannot read) or stepped off (every range
+/// offset at once) held no drive: the route drove on with no scan written, and the cell
+/// stayed black (+1 cell on every seed). The drive now waits for a frame that shows what
+/// is ahead (`slam_core::SensorFrame::sight`) and maps it when it goes on.
+#[test]
+fn a_drive_waits_for_a_depth_sensor_that_cannot_see() {
+    for case in ["depth-off", "depth-stuck", "depth-garbage", "depth-wrong"] {
+        one_case_meets_the_targets("two-wall-room.toml", PoseMode::Filter, 25.0, case);
+    }
+}

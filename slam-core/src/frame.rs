@@ -118,4 +118,18 @@ impl SensorFrame {
             commanded: None,
         }
     }
+
+    /// What the depth sensor saw ahead this tick, for the guard ([`crate::decide`]): its
+    /// scan, unless there is none or the sensor's task found it shows nothing as it is:
+    /// the frame before again bit for bit, a range the sensor cannot read, or every range
+    /// stepped off where it was ([`crate::Doubt::Stuck`], [`crate::Doubt::Impossible`],
+    /// [`crate::Doubt::Jump`]). A late frame ([`crate::Doubt::Late`]) still shows what
+    /// was there.
+    pub fn sight(&self) -> Option<&DepthScan> {
+        use crate::Doubt::{Impossible, Jump, Stuck};
+        match self.depth_doubt {
+            Some(Stuck | Impossible | Jump) => None,
+            _ => self.depth.as_ref(),
+        }
+    }
 }

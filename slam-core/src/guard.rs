@@ -9,8 +9,16 @@
 //! A motion whose input is doubted ([`crate::plausible`]) holds: a turn needs the gyro,
 //! a drive the gyro and the flow. The robot stands and the route step waits (it is not
 //! skipped), so the pose, which the core then takes as still, stays true, and the route
-//! goes on where it stopped once the input is trusted again. A doubted scan is not
-//! looked at; the map decides alone.
+//! goes on where it stopped once the input is trusted again.
+//!
+//! The map holds only what the fan has seen, so a forward drive also holds while the
+//! depth sensor is blind: no frame this tick, or none that shows what is ahead as it is
+//! ([`SensorFrame::sight`]: the frame before again, a range the sensor cannot read,
+//! every range stepped off). It goes on with the first frame that does. Any other frame
+//! is looked at, even one the core does not map for a doubt (a late frame, ranges a
+//! tag's distance disagreed with): a return in the path stops the drive, which is the
+//! safe way to be wrong, and those doubts may be lifted only by what a robot standing
+//! still never sees (a turn, a tag in the beam).
 //!
 //! The body is a circle about the turning axis, so a turn on the spot sweeps nothing new:
 //! turns always go. A drive sweeps a stadium: every point within the body's radius `r` of
@@ -41,6 +49,8 @@
 //! estimate agree even when both are off the truth.
 
 use crate::angle::{Angle, TRIG_ONE};
+#[cfg(doc)]
+use crate::frame::SensorFrame;
 use crate::frame::{DepthScan, DriveCommand, BEAMS};
 use crate::grid::{GridMap, Occupancy};
 use crate::plausible::{Input, Trust};
@@ -132,9 +142,9 @@ impl Decision {
     }
 }
 
-/// Whether `command` may be driven for the next tick from `pose`, given the map, the
-/// latest depth scan (`None`: no scan, the map alone decides) and the core's trust in
-/// its inputs. See the module docs.
+/// Whether `command` may be driven for the next tick from `pose`, given the map, what
+/// the depth sensor saw this tick ([`SensorFrame::sight`]; `None`: nothing new, so a
+/// forward drive holds) and the core's trust in its inputs. See the module docs.
 ///
 /// Out of line, as is its map walk: the firmware builds the core for speed, and this
 /// once-a-tick check need not be unrolled into its caller.
@@ -153,8 +163,10 @@ pub fn decide<const W: usize, const H: usize>(
     if command.speed_mm_s == 0 {
         return Decision::Go;
     }
-    let scan = scan.filter(|_| trust.depth.is_none());
     let forward = command.speed_mm_s > 0;
+    if forward && scan.is_none() {
+        return Decision::Hold(Input::Depth);
+    }
     let reach = i64::from(config.reach_mm(command.speed_mm_s.unsigned_abs()));
     let radius = i64::from(config.radius_mm);
     if forward {
@@ -253,6 +265,11 @@ mod tests {
     const AHEAD: DriveCommand = DriveCommand {
         speed_mm_s: 86,
         turn_mdps: 0,
+    };
+
+    /// A frame with no return on any beam: nothing within the sensor's reach.
+    const NOTHING_AHEAD: DepthScan = DepthScan {
+        ranges_mm: [None; BEAMS],
     };
 
     fn empty_map() -> Map {
@@ -376,14 +393,68 @@ mod tests {
     }
 
     #[test]
-    fn a_doubted_scan_is_not_looked_at() {
-        let stuck = Trust {
-            depth: Some(Doubt::Stuck),
+    fn a_scan_the_core_doubts_still_stops_a_drive() {
+        let disagreed = Trust {
+            depth: Some(Doubt::DisagreesWithTag),
             ..TRUSTED
         };
         let wall = wall_ahead(60);
-        assert!(!decide(&CONFIG, &POSE, &empty_map(), Some(&wall), &TRUSTED, AHEAD).is_go());
-        assert!(decide(&CONFIG, &POSE, &empty_map(), Some(&wall), &stuck, AHEAD).is_go());
+        for trust in [TRUSTED, disagreed] {
+            let decision = decide(&CONFIG, &POSE, &empty_map(), Some(&wall), &trust, AHEAD);
+            assert!(
+                matches!(decision, Decision::Stop(Obstacle::Beam(_))),
+                "{trust:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_forward_drive_holds_while_the_depth_sensor_is_blind() {
+        let map = empty_map();
+        let hold = Decision::Hold(Input::Depth);
+        let back = DriveCommand {
+            speed_mm_s: -86,
+            turn_mdps: 0,
+        };
+        let turn = DriveCommand {
+            speed_mm_s: 0,
+            turn_mdps: 31_500,
+        };
+        // Nothing seen as it is this tick: no frame, the frame before again, a range
+        // beyond the sensor's, or every range stepped.
+        let mut frame = crate::SensorFrame::empty(100_000);
+        frame.depth = Some(NOTHING_AHEAD);
+        for doubt in [
+            None,
+            Some(Doubt::Stuck),
+            Some(Doubt::Impossible),
+            Some(Doubt::Jump),
+        ] {
+            frame.depth_doubt = doubt;
+            let sight = (doubt.is_none()).then_some(&NOTHING_AHEAD);
+            assert_eq!(frame.sight(), sight, "{doubt:?}");
+        }
+        frame.depth = None;
+        assert_eq!(frame.sight(), None);
+        assert_eq!(decide(&CONFIG, &POSE, &map, None, &TRUSTED, AHEAD), hold);
+        // Backwards the sensor never looked; turns on the spot sweep nothing new.
+        assert!(decide(&CONFIG, &POSE, &map, None, &TRUSTED, back).is_go());
+        assert!(decide(&CONFIG, &POSE, &map, None, &TRUSTED, turn).is_go());
+        // A late frame still shows what was ahead.
+        frame.depth = Some(NOTHING_AHEAD);
+        frame.depth_doubt = Some(Doubt::Late);
+        assert_eq!(frame.sight(), Some(&NOTHING_AHEAD));
+        // The core's doubt of the depth sensor alone does not hold a drive that sees.
+        for doubt in [Doubt::Jump, Doubt::Late, Doubt::DisagreesWithTag] {
+            let doubted = Trust {
+                depth: Some(doubt),
+                ..TRUSTED
+            };
+            let scan = Some(&NOTHING_AHEAD);
+            assert!(decide(&CONFIG, &POSE, &map, scan, &doubted, AHEAD).is_go());
+        }
+        // A frame with nothing in reach is a frame: the drive goes.
+        assert!(decide(&CONFIG, &POSE, &map, Some(&NOTHING_AHEAD), &TRUSTED, AHEAD).is_go());
     }
 
     #[test]
@@ -416,7 +487,14 @@ mod tests {
         // A mapped wall parallel to the path, its cells' centres 125 mm to the side.
         let wall: [(i32, i32); 6] = core::array::from_fn(|i| (1125, 900 + 50 * i as i32));
         assert_eq!(
-            decide(&CONFIG, &POSE, &map_with(&wall), None, &TRUSTED, AHEAD),
+            decide(
+                &CONFIG,
+                &POSE,
+                &map_with(&wall),
+                Some(&NOTHING_AHEAD),
+                &TRUSTED,
+                AHEAD
+            ),
             Decision::Go
         );
     }
@@ -425,7 +503,7 @@ mod tests {
     fn dropouts_say_nothing() {
         let map = empty_map();
         assert_eq!(
-            decide(&CONFIG, &POSE, &map, None, &TRUSTED, AHEAD),
+            decide(&CONFIG, &POSE, &map, Some(&NOTHING_AHEAD), &TRUSTED, AHEAD),
             Decision::Go
         );
         let blank = DepthScan::default();
@@ -460,7 +538,14 @@ mod tests {
         );
         let further = map_with(&[(1000, 1300)]);
         assert_eq!(
-            decide(&CONFIG, &POSE, &further, None, &TRUSTED, AHEAD),
+            decide(
+                &CONFIG,
+                &POSE,
+                &further,
+                Some(&NOTHING_AHEAD),
+                &TRUSTED,
+                AHEAD
+            ),
             Decision::Go
         );
         // Backing into it: only the map can tell.
@@ -481,17 +566,32 @@ mod tests {
         // not facing north (it is then behind the centre).
         let map = map_with(&[(1075, 975)]);
         let east = Pose::from_mm_mdeg(1000, 1000, 90_000);
-        assert!(!decide(&CONFIG, &east, &map, None, &TRUSTED, AHEAD).is_go());
+        assert!(!decide(&CONFIG, &east, &map, Some(&NOTHING_AHEAD), &TRUSTED, AHEAD).is_go());
         let north_east = Pose::from_mm_mdeg(1000, 1000, 45_000);
-        assert!(!decide(&CONFIG, &north_east, &map, None, &TRUSTED, AHEAD).is_go());
+        assert!(!decide(
+            &CONFIG,
+            &north_east,
+            &map,
+            Some(&NOTHING_AHEAD),
+            &TRUSTED,
+            AHEAD
+        )
+        .is_go());
         assert_eq!(
-            decide(&CONFIG, &POSE, &map, None, &TRUSTED, AHEAD),
+            decide(&CONFIG, &POSE, &map, Some(&NOTHING_AHEAD), &TRUSTED, AHEAD),
             Decision::Go
         );
         // Near the grid's edge nothing is read outside it.
         let corner = Pose::from_mm_mdeg(-140, -140, 225_000);
         assert_eq!(
-            decide(&CONFIG, &corner, &empty_map(), None, &TRUSTED, AHEAD),
+            decide(
+                &CONFIG,
+                &corner,
+                &empty_map(),
+                Some(&NOTHING_AHEAD),
+                &TRUSTED,
+                AHEAD
+            ),
             Decision::Go
         );
     }
