@@ -30,10 +30,12 @@
 //! follows the one before as a fresh one would. But a sensor falling behind hands over
 //! again a frame it had already given, which noise makes all but impossible for a fresh
 //! one: from that frame the sensor is late by the time since it first came ([`Doubt::Late`]).
-//! It is on time again when a frame fits the frame before better as fresh (or as the
-//! first fresh one after a late one) than as late, which shows once the turn differs
-//! between the two moments: as it catches up (it skips the frames it was behind by) or
-//! when a turn starts or stops.
+//! It is on time again when a frame fits the frame before clearly better as fresh (or as
+//! the first fresh one after a late one) than as late, which shows once the turn differs
+//! between the two moments by a quarter of a zone or more: as it catches up (it skips the
+//! frames it was behind by) or when a turn starts or stops. Driving straight, or facing a
+//! plain wall that looks the same turned, it stays late: a late frame is not mapped, and
+//! one taken as fresh would be drawn where the robot no longer is.
 
 use crate::angle::Angle;
 use crate::frame::{DepthScan, BEAMS};
@@ -69,7 +71,7 @@ impl DepthStepConfig {
         min_step_mm: 75,
         min_zones: 5,
         most_apart_us: 200_000,
-        min_late_spread_mm: 15,
+        min_late_spread_mm: 30,
     };
 }
 
@@ -146,6 +148,20 @@ fn compare(
 /// Zone `i`'s range in `now` less the range predicted for it from `before`, the fan
 /// having turned `shift` zones between them; `None` where a range is missing.
 fn change(before: &DepthScan, now: &DepthScan, i: usize, shift: i32) -> Option<i32> {
+    change_within(before, now, i, shift, i32::MAX)
+}
+
+/// [`change`], but across an edge (two neighbouring zones whose ranges differ by more
+/// than `widest_mm`: a box's side, a corner) the range between them is not their blend:
+/// within an eighth of a zone of either, that zone's range is the prediction; further
+/// in, `None`.
+fn change_within(
+    before: &DepthScan,
+    now: &DepthScan,
+    i: usize,
+    shift: i32,
+    widest_mm: i32,
+) -> Option<i32> {
     // Where zone i looks now, in the old scan's zones.
     let at = (i as i32)
         .checked_mul(ZoneTurn::SHIFT_ONE)?
@@ -158,17 +174,32 @@ fn change(before: &DepthScan, now: &DepthScan, i: usize, shift: i32) -> Option<i
     );
     let f = at & (ZoneTurn::SHIFT_ONE - 1);
     let (a, b) = (i32::from(a), i32::from(b));
-    Some(i32::from(range) - (a + (((b - a) * f) >> 10)))
+    let predicted = if (b - a).abs() <= widest_mm {
+        a + (((b - a) * f) >> 10)
+    } else if f < ZoneTurn::SHIFT_ONE / 8 {
+        a
+    } else if f > ZoneTurn::SHIFT_ONE * 7 / 8 {
+        b
+    } else {
+        return None;
+    };
+    Some(i32::from(range) - predicted)
 }
+
+/// The widest step between neighbouring zones that [`spread`] blends across,
+/// millimetres: a wall's slant between two zones 5.6 degrees apart, not an edge.
+const BLENDED_MM: i32 = 250;
 
 /// How far the zones' changes from `before` to `now` (the fan turned `shift` zones)
 /// spread about their mean, millimetres: small when `shift` is the turn between the two
-/// frames, whatever the offset; `None` with fewer than `min_zones` compared.
+/// frames, whatever the offset; `None` with fewer than `min_zones` compared. Zones whose
+/// prediction falls across an edge are not compared: blended, an edge makes the true
+/// turn fit worse than none.
 fn spread(before: &DepthScan, now: &DepthScan, shift: i32, min_zones: u8) -> Option<u32> {
     let mut changes = [0i32; BEAMS];
     let mut n = 0;
     for i in 0..BEAMS {
-        if let Some(c) = change(before, now, i, shift) {
+        if let Some(c) = change_within(before, now, i, shift, BLENDED_MM) {
             changes[n] = c;
             n += 1;
         }
@@ -263,25 +294,25 @@ impl DepthSteps {
         config: &DepthStepConfig,
     ) -> bool {
         let late = self.late_us;
-        let fit = |from: Option<Angle>, to: Option<Angle>| {
-            spread(
-                &before.scan,
-                &now.scan,
-                fan.shift(from?, to?),
-                config.min_zones,
-            )
-        };
+        let fit = |shift: i32| spread(&before.scan, &now.scan, shift, config.min_zones);
         let then_before = self.heading_at(before.moment_us.wrapping_sub(late), now);
         let then_now = self.heading_at(now.moment_us.wrapping_sub(late), now);
-        let Some(as_late) = fit(then_before, then_now) else {
+        let (Some(then_before), Some(then_now)) = (then_before, then_now) else {
             return false;
         };
+        let late_shift = fan.shift(then_before, then_now);
+        let Some(as_late) = fit(late_shift) else {
+            return false;
+        };
+        // Only a turn that differs from the late one by a quarter zone can tell them
+        // apart: driving straight, both say the fan did not turn.
         let as_fresh = [
-            fit(Some(before.heading), Some(now.heading)),
-            fit(then_before, Some(now.heading)),
+            fan.shift(before.heading, now.heading),
+            fan.shift(then_before, now.heading),
         ]
         .into_iter()
-        .flatten()
+        .filter(|shift| shift.abs_diff(late_shift) >= (ZoneTurn::SHIFT_ONE / 4) as u32)
+        .filter_map(fit)
         .min();
         as_late >= u32::from(config.min_late_spread_mm)
             && as_fresh.is_some_and(|fresh| fresh.saturating_mul(2) < as_late)
@@ -610,6 +641,44 @@ mod tests {
             if late {
                 assert_eq!(verdict, Err(Doubt::Late));
             }
+        }
+    }
+
+    /// The frame the seed's fan sees at `heading_mdeg` and `ahead_mm` along its drive: a
+    /// box's face 800 mm ahead where the bearing is within 10 degrees of the start's
+    /// nose, a wall 2,500 mm ahead elsewhere; a millimetre of noise by frame `k`.
+    fn boxed(heading_mdeg: i64, ahead_mm: i64, k: usize) -> DepthScan {
+        let beams = fan(45_000);
+        scan(core::array::from_fn(|i| {
+            let bearing = beams[i] + Angle::from_millidegrees(heading_mdeg);
+            let range = if bearing.to_millidegrees().abs() <= 10_000 {
+                800
+            } else {
+                2_500 * crate::angle::TRIG_ONE / bearing.cos()
+            };
+            (range as i64 - ahead_mm) as u16 + u16::from(i == (k % BEAMS))
+        }))
+    }
+
+    #[test]
+    fn a_late_sensor_stays_late_past_a_box_edge_as_a_turn_stops_and_on_a_drive() {
+        let mut feed = Feed::new();
+        // Turning 3.15 degrees a frame until frame 12, then driving 10 mm a frame at the
+        // box. From frame 6 the sensor gives the frame of three before, for good. Blended
+        // across the box's edges, the true turn fitted the late frames worse than none
+        // as the turn stopped, and driving straight a box edge entering a zone made the
+        // two alike by chance: each lifted the doubt with the frames still late.
+        let mut pose = [(0i64, 0i64); 40];
+        for k in 0..40usize {
+            pose[k] = match k {
+                0 => (-30_000, 0),
+                1..=12 => (pose[k - 1].0 + 3_150, 0),
+                _ => (pose[k - 1].0, pose[k - 1].1 + 10),
+            };
+            let given = if k >= 6 { k - 3 } else { k };
+            let (heading, ahead) = pose[given];
+            let verdict = feed.frame(&boxed(heading, ahead, given), pose[k].0);
+            assert_eq!(verdict.is_err(), k >= 6, "frame {k}: {verdict:?}");
         }
     }
 
