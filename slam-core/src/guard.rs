@@ -164,21 +164,20 @@ pub fn decide<const W: usize, const H: usize>(
         return Decision::Go;
     }
     let forward = command.speed_mm_s > 0;
-    if forward && scan.is_none() {
-        return Decision::Hold(Input::Depth);
-    }
     let reach = i64::from(config.reach_mm(command.speed_mm_s.unsigned_abs()));
     let radius = i64::from(config.radius_mm);
     if forward {
-        if let Some(scan) = scan {
-            for (i, (range, angle)) in scan.ranges_mm.iter().zip(config.beam_angles).enumerate() {
-                let Some(range) = range else { continue };
-                let range = i64::from(*range);
-                let ahead = range * i64::from(angle.cos()) / i64::from(TRIG_ONE);
-                let across = range * i64::from(angle.sin()) / i64::from(TRIG_ONE);
-                if in_stadium(ahead, across, reach, radius) {
-                    return Decision::Stop(Obstacle::Beam(i as u8));
-                }
+        // Blind, the sensor that looks ahead sees nothing the map does not hold.
+        let Some(scan) = scan else {
+            return Decision::Hold(Input::Depth);
+        };
+        for (i, (range, angle)) in scan.ranges_mm.iter().zip(config.beam_angles).enumerate() {
+            let Some(range) = range else { continue };
+            let range = i64::from(*range);
+            let ahead = range * i64::from(angle.cos()) / i64::from(TRIG_ONE);
+            let across = range * i64::from(angle.sin()) / i64::from(TRIG_ONE);
+            if in_stadium(ahead, across, reach, radius) {
+                return Decision::Stop(Obstacle::Beam(i as u8));
             }
         }
     }
