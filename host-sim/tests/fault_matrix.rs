@@ -331,3 +331,47 @@ fn a_depth_sensor_late_for_a_minute_draws_nothing_out_of_place() {
         );
     }
 }
+
+/// A flow sensor that reads a third long, or drops in and out, for a minute from 2 s on
+/// the blocked route. Found beyond its commands, it holds the drive; standing, its
+/// readings are plausible, so it is trusted again, the drive resumes, and on that tick it
+/// is doubted again. That tick's motion was stood in by the last reading taken while the
+/// robot moved, one taken in the first turn on the spot (no drive), so every retry moved
+/// the robot a tick's drive the pose never saw: 20-94 black cells out of place and 35-55
+/// cm off at the end. A doubt that begins under another command than its stand-in was
+/// read under now stands in that command's own motion.
+#[test]
+fn a_flow_sensor_wrong_or_intermittent_for_a_minute_costs_nothing() {
+    let scenario = world::shipped::scenario("blocked-route.toml");
+    let cases = [
+        (PoseMode::Slam, "flow-wrong@2/60"),
+        (PoseMode::Slam, "flow-intermittent@2/60"),
+        (PoseMode::Filter, "flow-intermittent@2/60"),
+    ];
+    for (pose, fault) in cases {
+        let faults = [fault.parse().expect("fault")];
+        for seed in 1..=20 {
+            let base = run_with(&scenario, pose, seed, RunOptions::default()).expect("run");
+            let options = RunOptions {
+                faults: &faults,
+                ..RunOptions::default()
+            };
+            let faulted = run_with(&scenario, pose, seed, options).expect("run");
+            let (b, f) = (&base.figures, &faulted.figures);
+            let case = format!("{fault} {pose:?} seed {seed}");
+            assert_eq!(f.collisions, 0, "{case}");
+            assert!(
+                f.out_of_place <= b.out_of_place,
+                "{case}: {} cells out of place, {} unfaulted",
+                f.out_of_place,
+                b.out_of_place
+            );
+            assert!(
+                f.errors.final_error_cm <= b.errors.final_error_cm + 1.0,
+                "{case}: ends {:.1} cm off, {:.1} unfaulted",
+                f.errors.final_error_cm,
+                b.errors.final_error_cm
+            );
+        }
+    }
+}

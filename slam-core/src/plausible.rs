@@ -11,8 +11,9 @@
 //! While the gyro or the flow is doubted the motion code holds the motion that needs it
 //! ([`crate::guard`]), so the core takes a doubted input as reading "still" from the tick
 //! after the doubt began; on that first tick the robot was still moving, and the last
-//! trusted reading stands in for it (for a sensor found short of every command of the
-//! window, [`Doubt::Unmoved`], the commanded motion of the whole window). A tag that
+//! trusted reading stands in for it if it was read under the command then in force, else
+//! that command's own motion (for a sensor found short of every command of the window,
+//! [`Doubt::Unmoved`], the commanded motion of the whole window). A tag that
 //! disagrees with the estimate is the estimator's gate's to refuse (`crate::estimator`);
 //! a depth range that disagrees with a tag's distance doubts the depth sensor until the
 //! two agree again ([`crate::tag_range`]). Where each frame arrives, the frames are held
@@ -431,11 +432,10 @@ pub struct Plausibility {
     flow_repeats: Repeats<FlowDelta>,
     /// Whether a tag's distance agreed with the last tick's scan.
     depth_vouched: bool,
-    /// The newest trusted readings taken while the robot was not held, each with the
-    /// commands' change count then ([`RecentCommands::changes`]), to stand in for the
-    /// tick a doubt begins.
-    moving_gyro: Option<(GyroRate, u8)>,
-    moving_flow: Option<(FlowDelta, u8)>,
+    /// The newest trusted readings taken while the robot was not held, to stand in for
+    /// the tick a doubt begins.
+    moving_gyro: Option<Moving<GyroRate>>,
+    moving_flow: Option<Moving<FlowDelta>>,
     /// The motors' last commands, to check the gyro against.
     commands: RecentCommands,
 }
@@ -565,6 +565,9 @@ impl Plausibility {
                 gyro_following,
                 commands,
                 |c| c.turn_mdps == 0,
+                |c| GyroRate {
+                    rate_mdps: c.turn_mdps,
+                },
                 &mut self.moving_gyro,
             ),
         };
@@ -580,6 +583,7 @@ impl Plausibility {
                 flow_following,
                 commands,
                 |c| c.speed_mm_s == 0,
+                commanded_flow,
                 &mut self.moving_flow,
             ),
         };
@@ -633,6 +637,26 @@ fn following(
     }
 }
 
+/// A trusted reading taken while the robot was not held, with the command it was taken
+/// under.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+struct Moving<T> {
+    reading: T,
+    /// The commands' change count then ([`RecentCommands::changes`]).
+    changes: u8,
+    /// The newest command then, if known.
+    command: Option<DriveCommand>,
+}
+
+/// The flow a tick of `command`'s drive reads: one count a tick per millimetre a second
+/// (100 um counts at 10 Hz, as [`CommandTolerance`] takes them), nothing sideways.
+fn commanded_flow(command: &DriveCommand) -> FlowDelta {
+    FlowDelta {
+        forward_counts: command.speed_mm_s,
+        right_counts: 0,
+    }
+}
+
 /// What to integrate of an input: its reading when trusted (or absent unheard: lost),
 /// only as a guess when it strays from the newest command a frame after it changed (the
 /// robot may have made the motion, a sensor behind, or not), and no reference for a doubt
@@ -640,9 +664,12 @@ fn following(
 /// reading of the last trusted tick on which it was not held: a held motion resumes as it
 /// was when it stopped. That reading is as good as one while the `commands` are steady
 /// and the same as when it was read; when they changed of late (a turn ending, a drive
-/// beginning) it only stands in. Steady at a command that does not move the robot this
-/// way (`idle`: a turn on the spot for the flow), the robot is still this way, whatever
-/// the reading was.
+/// beginning) it only stands in, and only if it was read under the newest command: read
+/// under another (a turn's flow, for a drive resumed after a hold), the newest command's
+/// own motion (`commanded`) stands in, since the motors follow a command within a tick.
+/// Steady at a command that does not move the robot this way (`idle`: a turn on the spot
+/// for the flow), the robot is still this way, whatever the reading was.
+#[allow(clippy::too_many_arguments)]
 #[inline(never)]
 fn known<T: Copy>(
     reading: Option<T>,
@@ -651,32 +678,42 @@ fn known<T: Copy>(
     following: Following,
     commands: &RecentCommands,
     idle: impl Fn(&DriveCommand) -> bool,
-    moving: &mut Option<(T, u8)>,
+    commanded: impl Fn(&DriveCommand) -> T,
+    moving: &mut Option<Moving<T>>,
 ) -> Known<T> {
     match (doubt, reading) {
         (None, Some(r)) if following == Following::Astray => Known::StandIn(r),
         (None, Some(r)) if following == Following::Changing => Known::Read(r),
         (None, Some(r)) => {
             if !held {
-                *moving = Some((r, commands.changes()));
+                *moving = Some(Moving {
+                    reading: r,
+                    changes: commands.changes(),
+                    command: commands.newest(),
+                });
             }
             Known::Read(r)
         }
         (None, None) => Known::Lost,
         (Some(_), _) if held => Known::Still,
-        (Some(_), _) => match *moving {
-            None => Known::Lost,
-            Some((r, then)) if commands.steady() => {
-                if then == commands.changes() {
-                    Known::Read(r)
-                } else if commands.newest().is_some_and(|now| idle(&now)) {
-                    Known::Still
-                } else {
-                    Known::StandIn(r)
+        (Some(_), _) => {
+            let Some(then) = *moving else {
+                return Known::Lost;
+            };
+            let now = commands.newest();
+            if commands.steady() {
+                if then.changes == commands.changes() {
+                    return Known::Read(then.reading);
+                }
+                if now.is_some_and(|now| idle(&now)) {
+                    return Known::Still;
                 }
             }
-            Some((r, _)) => Known::StandIn(r),
-        },
+            match now {
+                Some(now) if then.command != Some(now) => Known::StandIn(commanded(&now)),
+                _ => Known::StandIn(then.reading),
+            }
+        }
     }
 }
 
@@ -861,10 +898,11 @@ mod tests {
         // Lost in a steady turn: the robot turns as it did.
         let lost = turning().judge(None, None, None, Some(TURN), &C);
         assert_eq!(lost.gyro, Known::Read(rate(31_500)));
-        // Lost as the turn gives way to a drive: the last rate is only a guess.
+        // Lost as the turn gives way to a drive: the turn's rate was not read under the
+        // drive, whose own (none) is the guess.
         let lost = turning().judge(None, None, None, Some(DRIVE), &C);
-        assert_eq!(lost.gyro, Known::StandIn(rate(31_500)));
-        // And with the commands not known.
+        assert_eq!(lost.gyro, Known::StandIn(rate(0)));
+        // With the commands not known, the last rate is.
         let lost = turning().judge(None, None, None, None, &C);
         assert_eq!(lost.gyro, Known::StandIn(rate(31_500)));
     }
@@ -938,6 +976,47 @@ mod tests {
         let lost = p.judge(Some(rate(31_490)), None, None, Some(TURN), &C);
         assert!(lost.trust.flow.is_some());
         assert_eq!(lost.flow, Known::Still);
+    }
+
+    #[test]
+    fn a_drive_resumed_after_a_hold_stands_in_its_command_unless_it_was_read_under_it() {
+        let still = DriveCommand {
+            speed_mm_s: 0,
+            turn_mdps: 0,
+        };
+        // Read in a turn (no drive), then in a drive when `drive_first`; the flow then
+        // reads a third long, is doubted and the drive held; standing, it is trusted
+        // again; the drive resumes and it reads long again.
+        let resumed = |drive_first: bool| {
+            let mut p = Plausibility::default();
+            for i in 0..4 {
+                p.judge(
+                    Some(rate(31_500 + i)),
+                    Some(flow(i, 0)),
+                    None,
+                    Some(TURN),
+                    &C,
+                );
+            }
+            if drive_first {
+                for i in 0..4 {
+                    p.judge(Some(rate(i)), Some(flow(86 - i, 0)), None, Some(DRIVE), &C);
+                }
+            }
+            let long = p.judge(Some(rate(0)), Some(flow(115, 0)), None, Some(DRIVE), &C);
+            assert_eq!(long.trust.flow, Some(Doubt::Uncommanded));
+            for i in 0..3 {
+                p.judge(Some(rate(i)), Some(flow(i % 2, 0)), None, Some(still), &C);
+            }
+            assert_eq!(p.trust(), Trust::default());
+            let again = p.judge(Some(rate(0)), Some(flow(115, 0)), None, Some(DRIVE), &C);
+            assert_eq!(again.trust.flow, Some(Doubt::Uncommanded));
+            again.flow
+        };
+        // The turn's counts are no drive's: the drive's own stand in...
+        assert_eq!(resumed(false), Known::StandIn(flow(86, 0)));
+        // ...unless a reading was taken under this very drive.
+        assert_eq!(resumed(true), Known::StandIn(flow(83, 0)));
     }
 
     #[test]
