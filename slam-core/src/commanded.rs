@@ -265,6 +265,10 @@ pub struct RecentCommands {
     steady: bool,
     /// [`RecentCommands::taken`], worked out once a push.
     taken: bool,
+    /// [`RecentCommands::stopped`], worked out once a push.
+    stopped: bool,
+    /// [`RecentCommands::newest`], kept at each push.
+    newest: Option<DriveCommand>,
 }
 
 impl RecentCommands {
@@ -284,6 +288,7 @@ impl RecentCommands {
         if let Some(slot) = self.slots.get_mut(at) {
             *slot = command;
         }
+        self.newest = command;
         self.next = if at + 1 < COMMAND_FRAMES {
             at as u8 + 1
         } else {
@@ -292,12 +297,19 @@ impl RecentCommands {
         self.reach = Reach::of_all(&self.slots).map(|r| (r, Limits::of(&r, tolerance)));
         let [first, rest @ ..] = &self.slots;
         self.steady = first.is_some() && rest.iter().all(|c| c == first);
+        self.stopped = self.steady && *first == Some(DriveCommand::default());
     }
 
     /// Whether the last commands are all known and all the same: the robot moves now as
     /// it moved a few ticks ago.
     pub fn steady(&self) -> bool {
         self.steady
+    }
+
+    /// Whether the last commands all stood the robot still (steady at no drive and no
+    /// turn): the motors cannot have moved it.
+    pub fn stopped(&self) -> bool {
+        self.stopped
     }
 
     /// Whether the newest command was in force as the frame before ended too: it has had
@@ -316,12 +328,7 @@ impl RecentCommands {
 
     /// The newest command, if known.
     pub fn newest(&self) -> Option<DriveCommand> {
-        // The slot before the next, without the division a `%` costs the M0+.
-        let newest = match usize::from(self.next) {
-            0 => COMMAND_FRAMES - 1,
-            next => next - 1,
-        };
-        self.slots.get(newest).copied().flatten()
+        self.newest
     }
 
     /// The fastest turn among the last commands, millidegrees per second either way;

@@ -571,6 +571,14 @@ impl Plausibility {
                 &mut self.moving_gyro,
             ),
         };
+        // Stopped, every command of the window standing: the motors cannot turn the
+        // robot, and a trusted reading is the gyro's bias and noise. The heading holds,
+        // where integrating the reading less the learned bias would drift it by what the
+        // bias is not yet known to.
+        let gyro = match gyro {
+            Known::Read(_) if commands.stopped() => Known::Still,
+            g => g,
+        };
         let flow = match trust.flow {
             Some(Doubt::Unmoved) if !drive_held => Known::StandIn(FlowDelta {
                 forward_counts: least_speed.saturating_mul(window),
@@ -667,6 +675,8 @@ fn commanded_flow(command: &DriveCommand) -> FlowDelta {
 /// beginning) it only stands in, and only if it was read under the newest command: read
 /// under another (a turn's flow, for a drive resumed after a hold), the newest command's
 /// own motion (`commanded`) stands in, since the motors follow a command within a tick.
+/// (The reading is the better guess where there is one: the command's counts leave out
+/// the flow sensor's scale.)
 /// Steady at a command that does not move the robot this way (`idle`: a turn on the spot
 /// for the flow), the robot is still this way, whatever the reading was.
 #[allow(clippy::too_many_arguments)]
@@ -686,11 +696,17 @@ fn known<T: Copy>(
         (None, Some(r)) if following == Following::Changing => Known::Read(r),
         (None, Some(r)) => {
             if !held {
-                *moving = Some(Moving {
-                    reading: r,
-                    changes: commands.changes(),
-                    command: commands.newest(),
-                });
+                // The command is taken once a change: tick after tick, only the reading.
+                match moving {
+                    Some(m) if m.changes == commands.changes() => m.reading = r,
+                    _ => {
+                        *moving = Some(Moving {
+                            reading: r,
+                            changes: commands.changes(),
+                            command: commands.newest(),
+                        })
+                    }
+                }
             }
             Known::Read(r)
         }
@@ -1017,6 +1033,39 @@ mod tests {
         assert_eq!(resumed(false), Known::StandIn(flow(86, 0)));
         // ...unless a reading was taken under this very drive.
         assert_eq!(resumed(true), Known::StandIn(flow(83, 0)));
+    }
+
+    #[test]
+    fn a_stopped_robot_holds_its_heading_whatever_its_trusted_gyro_reads() {
+        let mut p = Plausibility::default();
+        for i in 0..4 {
+            p.judge(
+                Some(rate(31_500 + i)),
+                Some(flow(i, 0)),
+                None,
+                Some(TURN),
+                &C,
+            );
+        }
+        // The turn has stopped, but the window still holds it: the reading is the motion.
+        let stopped = DriveCommand::default();
+        let stopping = p.judge(Some(rate(25)), Some(flow(0, 0)), None, Some(stopped), &C);
+        assert_eq!(stopping.gyro, Known::Read(rate(25)));
+        p.judge(Some(rate(-5)), Some(flow(1, 0)), None, Some(stopped), &C);
+        // Every command of the window standing: the bias and the noise are no turn.
+        for i in 0..3 {
+            let j = p.judge(
+                Some(rate(20 + i)),
+                Some(flow(i, 0)),
+                None,
+                Some(stopped),
+                &C,
+            );
+            assert_eq!((j.trust, j.gyro), (Trust::default(), Known::Still));
+        }
+        // With the commands not known, the reading is the motion.
+        let unknown = p.judge(Some(rate(23)), Some(flow(0, 0)), None, None, &C);
+        assert_eq!(unknown.gyro, Known::Read(rate(23)));
     }
 
     #[test]
