@@ -91,6 +91,9 @@ pub struct CameraCheck {
     guessed: bool,
     /// The tick the filter last took a sighting on.
     last_taken_tick: u32,
+    /// Sightings in a row that fitted neither a guessed lag's moment nor their own
+    /// ([`CameraCheck::fits_no_moment`]).
+    misses: u8,
     /// The run of refused pictures since the last sighting taken.
     run: Run,
     /// The run's first refused sighting: its tag and bearing innovation.
@@ -121,6 +124,10 @@ fn turned_in(mdps: u32, dt_us: u32) -> i32 {
 /// may still read the turn they changed (or not yet read it): as many as a camera
 /// behind is found out for (as far back as the pose history reaches).
 pub const LATE_GYRO_TICKS: u8 = REMEMBERED as u8;
+
+/// How many sightings in a row must fit neither a guessed lag's moment nor their own
+/// before the guess is dropped ([`CameraCheck::fits_no_moment`]).
+pub const MISSES_TO_DROP: u8 = 3;
 
 /// How many pictures [`CameraCheck`] remembers: a camera up to three ticks behind is
 /// found out, as far back as the pose history can place a picture a tick old
@@ -170,6 +177,7 @@ impl CameraCheck {
             lag: None,
             guessed: false,
             last_taken_tick: 0,
+            misses: 0,
             run: Run::None,
             first: None,
             drift: 0,
@@ -246,15 +254,24 @@ impl CameraCheck {
     pub fn behind(&mut self, ticks: u32) {
         self.lag = Some(ticks);
         self.guessed = true;
+        self.misses = 0;
         self.new_run();
     }
 
     /// A sighting fitted neither the lagged moment nor the picture's own. A guessed lag
-    /// was wrong (a heading gone off in a steady turn looks like a camera behind until
-    /// the turn ends): it is dropped, and the refusals count towards forgetting the
-    /// heading. A lag a repeated picture showed stands.
+    /// that [`MISSES_TO_DROP`] sightings in a row fit neither way was wrong (a heading
+    /// gone off in a steady turn looks like a camera behind until the turn ends): it is
+    /// dropped, and the refusals count towards forgetting the heading. One such sighting
+    /// is not enough: a filter sure of its heading may refuse one only just at the lag
+    /// that fits it far better than its own moment. A lag a repeated picture showed
+    /// stands.
     pub fn fits_no_moment(&mut self) {
-        if self.guessed {
+        if !self.guessed {
+            return;
+        }
+        self.misses = self.misses.saturating_add(1);
+        if self.misses >= MISSES_TO_DROP {
+            self.misses = 0;
             self.lag = None;
             self.guessed = false;
             self.run = Run::Drifted;
@@ -265,12 +282,14 @@ impl CameraCheck {
     /// A sighting refused at the lagged moment was taken at the picture's own: the
     /// camera has caught up.
     pub fn caught_up(&mut self) {
+        self.misses = 0;
         self.lag = None;
         self.guessed = false;
     }
 
     /// The filter took a sighting on tick `tick`: any run of refusals is over.
     pub fn taken(&mut self, tick: u32) {
+        self.misses = 0;
         self.last_taken_tick = tick;
         self.new_run();
     }
@@ -420,6 +439,15 @@ mod tests {
         assert!(!c.refused(true, false));
         c.behind(3);
         assert_eq!(c.lag_ticks(), Some(3));
+        // One sighting that fits neither moment is not enough, nor two with one taken
+        // between...
+        c.fits_no_moment();
+        c.taken(7);
+        for _ in 1..MISSES_TO_DROP {
+            c.fits_no_moment();
+            assert_eq!(c.lag_ticks(), Some(3));
+        }
+        // ...but as many in a row as it takes are.
         c.fits_no_moment();
         assert_eq!(c.lag_ticks(), None);
         // The refusals now count towards forgetting the heading, though the run leapt.
@@ -429,14 +457,18 @@ mod tests {
             assert_eq!(c.judge(&picture(tick as i32), tick), Picture::New);
         }
         assert_eq!(c.judge(&picture(1), 4), Picture::Late { ticks: 3 });
-        c.fits_no_moment();
+        for _ in 0..MISSES_TO_DROP {
+            c.fits_no_moment();
+        }
         assert_eq!(c.lag_ticks(), Some(3));
         // Nor does a guess outlive the camera catching up.
         c.behind(2);
         c.caught_up();
         c.behind(1);
         c.judge(&picture(1), 5);
-        c.fits_no_moment();
+        for _ in 0..MISSES_TO_DROP {
+            c.fits_no_moment();
+        }
         assert_eq!(c.lag_ticks(), Some(4));
     }
 
