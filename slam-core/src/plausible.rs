@@ -13,7 +13,9 @@
 //! after the doubt began; on that first tick the robot was still moving, and the last
 //! trusted reading stands in for it if it was read under the command then in force, else
 //! that command's own motion (for a sensor found short of every command of the window,
-//! [`Doubt::Unmoved`], the commanded motion of the whole window). A tag that
+//! [`Doubt::Unmoved`], the commanded motion of the whole window). Stopped, every command
+//! of the window standing, the motors cannot turn the robot: a trusted gyro reads only its
+//! bias and noise, and the heading holds. A tag that
 //! disagrees with the estimate is the estimator's gate's to refuse (`crate::estimator`);
 //! a depth range that disagrees with a tag's distance doubts the depth sensor until the
 //! two agree again ([`crate::tag_range`]). Where each frame arrives, the frames are held
