@@ -4,6 +4,7 @@
 
 use host_sim::fault_matrix::{run_matrix, table, CaseFigures, Window};
 use host_sim::run::{run_with, Commands, PoseMode, RunOptions};
+use host_sim::{Figures, Scenario};
 
 const WINDOW: Window = Window {
     start_s: 5.0,
@@ -23,6 +24,19 @@ fn missed(cases: &[CaseFigures]) -> Vec<&str> {
         .filter(|c| !c.meets_targets())
         .map(|c| c.case.as_str())
         .collect()
+}
+
+/// `seed`'s run of `scenario` without a fault and with `faulted`'s options: the
+/// figures of each.
+fn beside_unfaulted(
+    scenario: &Scenario,
+    pose: PoseMode,
+    seed: u64,
+    faulted: RunOptions<'_>,
+) -> (Figures, Figures) {
+    let base = run_with(scenario, pose, seed, RunOptions::default()).expect("run");
+    let faulted = run_with(scenario, pose, seed, faulted).expect("run");
+    (base.figures, faulted.figures)
 }
 
 /// All 24 cases ran on every one of the 20 seeds, and none panicked.
@@ -203,17 +217,15 @@ fn a_gyro_bias_jump_hidden_from_the_check_is_recovered_from_by_the_tags() {
     let scenario = world::shipped::scenario("seed-mat.toml");
     let faults = ["gyro-wrong@5/3".parse().expect("fault")];
     for seed in 1..=20 {
-        let base = run_with(&scenario, PoseMode::Filter, seed, RunOptions::default()).expect("run");
         let options = RunOptions {
             faults: &faults,
             commands: Commands::Hidden,
             ..RunOptions::default()
         };
-        let blind = run_with(&scenario, PoseMode::Filter, seed, options).expect("run");
         // Not told the command, the core believes the jump: the route is not held, the
         // filter's gate refuses the tags 9 degrees off, then it forgets its heading and
         // takes them again, and ends within a centimetre of the unfaulted run.
-        let (b, f) = (&base.figures, &blind.figures);
+        let (b, f) = &beside_unfaulted(&scenario, PoseMode::Filter, seed, options);
         assert_eq!(f.held_ticks, 0, "seed {seed}");
         assert!(f.fixes_rejected > b.fixes_rejected, "seed {seed}");
         assert!(
@@ -315,13 +327,11 @@ fn a_depth_sensor_late_for_a_minute_draws_nothing_out_of_place() {
     let scenario = world::shipped::scenario("blocked-route.toml");
     let faults = ["depth-slow@2/60".parse().expect("fault")];
     for seed in 1..=20 {
-        let base = run_with(&scenario, PoseMode::Filter, seed, RunOptions::default()).expect("run");
         let options = RunOptions {
             faults: &faults,
             ..RunOptions::default()
         };
-        let late = run_with(&scenario, PoseMode::Filter, seed, options).expect("run");
-        let (b, f) = (&base.figures, &late.figures);
+        let (b, f) = &beside_unfaulted(&scenario, PoseMode::Filter, seed, options);
         assert_eq!(f.collisions, 0, "seed {seed}");
         assert!(
             f.out_of_place <= b.out_of_place,
@@ -374,13 +384,11 @@ fn faults_of_a_minute_on_the_blocked_route_cost_nothing() {
     for (pose, fault, most_added) in cases {
         let faults = [fault.parse().expect("fault")];
         for seed in 1..=20 {
-            let base = run_with(&scenario, pose, seed, RunOptions::default()).expect("run");
             let options = RunOptions {
                 faults: &faults,
                 ..RunOptions::default()
             };
-            let faulted = run_with(&scenario, pose, seed, options).expect("run");
-            let (b, f) = (&base.figures, &faulted.figures);
+            let (b, f) = &beside_unfaulted(&scenario, pose, seed, options);
             let case = format!("{fault} {pose:?} seed {seed}");
             assert_eq!(f.collisions, 0, "{case}");
             assert!(

@@ -750,6 +750,27 @@ mod tests {
         speed_mm_s: 86,
         turn_mdps: 0,
     };
+    /// Standing.
+    const STOP: DriveCommand = DriveCommand {
+        speed_mm_s: 0,
+        turn_mdps: 0,
+    };
+
+    /// Checks that have seen four ticks of a steady turn on the spot, its readings
+    /// trusted (the flow's a count or so: the sensor sits on the axis).
+    fn after_a_turn() -> Plausibility {
+        let mut p = Plausibility::default();
+        for i in 0..4 {
+            p.judge(
+                Some(rate(31_500 + i)),
+                Some(flow(i, 0)),
+                None,
+                Some(TURN),
+                &C,
+            );
+        }
+        p
+    }
 
     fn rate(mdps: i32) -> GyroRate {
         GyroRate { rate_mdps: mdps }
@@ -930,10 +951,7 @@ mod tests {
         // Standing, then a drive the flow reads nothing of, three ticks late: the robot
         // is not held in the first two, the second's scan is not vouched for, and at
         // the third every one of the window's commands asked for a drive.
-        let still = Some(DriveCommand {
-            speed_mm_s: 0,
-            turn_mdps: 0,
-        });
+        let still = Some(STOP);
         let mut p = Plausibility::default();
         for i in 0..4 {
             let j = p.judge(Some(rate(i)), Some(flow(i % 2, 0)), None, still, &C);
@@ -998,24 +1016,11 @@ mod tests {
 
     #[test]
     fn a_drive_resumed_after_a_hold_stands_in_its_command_unless_it_was_read_under_it() {
-        let still = DriveCommand {
-            speed_mm_s: 0,
-            turn_mdps: 0,
-        };
         // Read in a turn (no drive), then in a drive when `drive_first`; the flow then
         // reads a third long, is doubted and the drive held; standing, it is trusted
         // again; the drive resumes and it reads long again.
         let resumed = |drive_first: bool| {
-            let mut p = Plausibility::default();
-            for i in 0..4 {
-                p.judge(
-                    Some(rate(31_500 + i)),
-                    Some(flow(i, 0)),
-                    None,
-                    Some(TURN),
-                    &C,
-                );
-            }
+            let mut p = after_a_turn();
             if drive_first {
                 for i in 0..4 {
                     p.judge(Some(rate(i)), Some(flow(86 - i, 0)), None, Some(DRIVE), &C);
@@ -1024,7 +1029,7 @@ mod tests {
             let long = p.judge(Some(rate(0)), Some(flow(115, 0)), None, Some(DRIVE), &C);
             assert_eq!(long.trust.flow, Some(Doubt::Uncommanded));
             for i in 0..3 {
-                p.judge(Some(rate(i)), Some(flow(i % 2, 0)), None, Some(still), &C);
+                p.judge(Some(rate(i)), Some(flow(i % 2, 0)), None, Some(STOP), &C);
             }
             assert_eq!(p.trust(), Trust::default());
             let again = p.judge(Some(rate(0)), Some(flow(115, 0)), None, Some(DRIVE), &C);
@@ -1039,30 +1044,14 @@ mod tests {
 
     #[test]
     fn a_stopped_robot_holds_its_heading_whatever_its_trusted_gyro_reads() {
-        let mut p = Plausibility::default();
-        for i in 0..4 {
-            p.judge(
-                Some(rate(31_500 + i)),
-                Some(flow(i, 0)),
-                None,
-                Some(TURN),
-                &C,
-            );
-        }
+        let mut p = after_a_turn();
         // The turn has stopped, but the window still holds it: the reading is the motion.
-        let stopped = DriveCommand::default();
-        let stopping = p.judge(Some(rate(25)), Some(flow(0, 0)), None, Some(stopped), &C);
+        let stopping = p.judge(Some(rate(25)), Some(flow(0, 0)), None, Some(STOP), &C);
         assert_eq!(stopping.gyro, Known::Read(rate(25)));
-        p.judge(Some(rate(-5)), Some(flow(1, 0)), None, Some(stopped), &C);
+        p.judge(Some(rate(-5)), Some(flow(1, 0)), None, Some(STOP), &C);
         // Every command of the window standing: the bias and the noise are no turn.
         for i in 0..3 {
-            let j = p.judge(
-                Some(rate(20 + i)),
-                Some(flow(i, 0)),
-                None,
-                Some(stopped),
-                &C,
-            );
+            let j = p.judge(Some(rate(20 + i)), Some(flow(i, 0)), None, Some(STOP), &C);
             assert_eq!((j.trust, j.gyro), (Trust::default(), Known::Still));
         }
         // With the commands not known, the reading is the motion.

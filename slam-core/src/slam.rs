@@ -808,26 +808,27 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         if self.camera.lag_ticks().is_some() || frame.tags.is_empty() {
             return None;
         }
-        let moved = |lag: u32| {
+        // Every sighting taken at the lag, and how far they moved the pose together.
+        let taken_at = |lag: u32| {
             let age = frame
                 .tags_age_us
                 .saturating_add(lag.saturating_mul(frame.dt_us));
             let mut trial = self.estimator.clone();
             let mut then = self.history.at(age);
-            let mut moved = 0u64;
+            let mut size = 0u64;
             for detection in frame.tags.iter() {
                 let tag = self.config.tags.get(detection.id);
                 let before = then?;
                 let sighted = trial.sight(detection, tag, &self.config.camera, then, None);
                 trial.settle();
                 let after = sighted.ok()?;
-                moved = moved.saturating_add(correction_size(&before, &after));
+                size = size.saturating_add(correction_size(&before, &after));
                 then = Some(after);
             }
-            Some((moved, lag))
+            Some((size, lag))
         };
         (1..HISTORY_LEN as u32 - 1)
-            .filter_map(moved)
+            .filter_map(taken_at)
             .min()
             .map(|(_, lag)| lag)
     }
