@@ -556,6 +556,15 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             Some((scan, Some(then))) if self.config.matching.is_some() => {
                 self.sweep_scan(scan, &then)
             }
+            // Without matching nothing ties the map to itself: the filter must also be
+            // sure of the pose to within about a cell.
+            Some((_, Some(_)))
+                if self.config.localiser == Localiser::Filter
+                    && !self.estimator.sure_enough_to_map() =>
+            {
+                self.counters.scans_withheld += 1;
+                0
+            }
             Some((scan, Some(then))) => self.map_scan(scan, &then),
             Some((_, None)) => {
                 stale.depth = true;

@@ -34,6 +34,13 @@ pub const WALL_HELD_SD_MDEG: i64 = 500;
 pub const SURE_POSITION_MM: i64 = 20;
 /// The position's deviation after [`Estimator::forget_position`], millimetres.
 pub const FORGOTTEN_POSITION_MM: i64 = 50;
+/// The position's deviation within which the filter vouches for a pose to map a scan at
+/// when nothing else ties the map to itself ([`Estimator::sure_enough_to_map`]),
+/// millimetres: three deviations are 45 mm, inside a 5 cm cell.
+pub const MAPPED_POSITION_SD_MM: i64 = 15;
+/// The heading's deviation likewise, millidegrees: three deviations, 3 degrees, move a
+/// wall a metre away by a cell.
+pub const MAPPED_HEADING_SD_MDEG: i64 = 1_000;
 /// Updates after [`Estimator::forget_heading`] that settle the whole matrix.
 const SETTLED_FULLY_AFTER_FORGETTING: u8 = 30;
 
@@ -305,6 +312,18 @@ impl Estimator {
         true
     }
 
+    /// Whether the pose is known well enough for a scan to be mapped at it without
+    /// matching (within `MAPPED_POSITION_SD_MM` along each axis and
+    /// `MAPPED_HEADING_SD_MDEG`): past that, as in a long while with no tag in sight, a
+    /// wall would be drawn where it is not, and the map is left as it was.
+    pub fn sure_enough_to_map(&self) -> bool {
+        let position = square(units::position_from_um(MAPPED_POSITION_SD_MM * 1000));
+        let heading = square(units::heading_from_mdeg(MAPPED_HEADING_SD_MDEG));
+        self.p.get(State::X, State::X) <= position
+            && self.p.get(State::Y, State::Y) <= position
+            && self.p.get(State::Heading, State::Heading) <= heading
+    }
+
     /// Forgets what the filter knew of the position when it is sure of it (within
     /// `SURE_POSITION_MM`) and two tags have refused it together for a while, the depth
     /// sensor not seeing them elsewhere: a position held sure against the tags,
@@ -544,6 +563,29 @@ mod tests {
             e.p.get(State::Heading, State::Heading) - h0,
             e.p.get(State::X, State::X) - x0,
         )
+    }
+
+    #[test]
+    fn a_scan_is_mapped_only_while_position_and_heading_are_both_within_their_bounds() {
+        let position = |mm: i64| square(units::position_from_um(mm * 1000));
+        let heading = |mdeg: i64| square(units::heading_from_mdeg(mdeg));
+        let with = |i: State, variance: i64| {
+            let mut e = Estimator::new(EstimatorConfig::SEED);
+            e.p.replace(i, variance);
+            e.sure_enough_to_map()
+        };
+        assert!(Estimator::new(EstimatorConfig::SEED).sure_enough_to_map());
+        for (i, bound) in [
+            (State::X, position(MAPPED_POSITION_SD_MM)),
+            (State::Y, position(MAPPED_POSITION_SD_MM)),
+            (State::Heading, heading(MAPPED_HEADING_SD_MDEG)),
+        ] {
+            assert!(with(i, bound), "{i:?} at its bound");
+            assert!(!with(i, bound + 1), "{i:?} past its bound");
+        }
+        // A tick without the gyro adds a stale reading's 3 degrees: too unsure to map.
+        let (heading_added, _) = after_unseen(config::STALE_PERIOD_US);
+        assert!(heading_added > heading(MAPPED_HEADING_SD_MDEG));
     }
 
     #[test]
