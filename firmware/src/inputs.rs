@@ -230,10 +230,10 @@ pub struct Inputs {
     /// Raised once by [`crate::sensors::imu`] when the gyro bias is calibrated and yaw
     /// integration has begun; [`crate::motion`] waits for it before moving.
     pub gyro_ready: Signal<CriticalSectionRawMutex, ()>,
-    /// Raised by the SLAM tick when a tag's distance agreed with a scan, taken by
-    /// [`crate::sensors::depth`]: the ranges are right, whatever the frames' steps summed
-    /// to.
-    pub depth_vouched: AtomicBool,
+    /// Raised by the SLAM tick when what the depth frames' steps summed to is to be
+    /// forgotten (`Slam::depth_steps_void`: a tag vouched for the ranges, or the gyro is
+    /// doubted), taken by [`crate::sensors::depth`].
+    pub depth_steps_void: AtomicBool,
 }
 
 impl Inputs {
@@ -246,7 +246,7 @@ impl Inputs {
             tags: Signal::new(),
             yaw: YawIntegrator::new(),
             gyro_ready: Signal::new(),
-            depth_vouched: AtomicBool::new(false),
+            depth_steps_void: AtomicBool::new(false),
         }
     }
 }

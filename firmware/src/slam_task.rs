@@ -311,8 +311,8 @@ pub async fn slam_task(
         let slam = saved.slam();
         let report = slam.step(&frame);
         let stepped = Instant::now();
-        if slam.depth_vouched() {
-            inputs.depth_vouched.store(true, portable_atomic::Ordering::Relaxed);
+        if slam.depth_steps_void() {
+            inputs.depth_steps_void.store(true, portable_atomic::Ordering::Relaxed);
         }
         #[cfg(feature = "matching")]
         let report = {

@@ -448,8 +448,8 @@ impl DepthFrames {
             .err();
     }
 
-    fn vouched(&mut self) {
-        self.steps.vouched();
+    fn forget_steps(&mut self) {
+        self.steps.forget_steps();
     }
 }
 
@@ -530,8 +530,8 @@ fn run_sized<const W: usize, const H: usize>(
         depth_steps.judge(&mut frame);
         let report = slam.step(&frame);
         let report = slam.measure_walls(&mut walls, &mut turn, &frame, report);
-        if slam.depth_vouched() {
-            depth_steps.vouched();
+        if slam.depth_steps_void() {
+            depth_steps.forget_steps();
         }
         // The guard reads what the mapper believes, never the truth.
         let mut command = command;

@@ -23,7 +23,10 @@
 //!
 //! [`DepthSteps`] sums such steps as the sensor's offset and doubts the depth sensor
 //! ([`Doubt::Jump`]) until the offset is back within one step of where it was (the
-//! opposite step, when the sensor recovers) or a tag vouches for the ranges.
+//! opposite step, when the sensor recovers), a tag vouches for the ranges, or the gyro
+//! is found doubted ([`DepthSteps::forget_steps`]): a turn the gyro read late or not at
+//! all moves every range of a slanted wall the same way, a step the sensor never made,
+//! and no opposite step need come to take it back.
 //!
 //! A sensor whose frames come late is a step in time. Mid-turn a late frame draws the
 //! walls turned by what the robot turned since it was taken, and once late, each frame
@@ -419,9 +422,9 @@ impl DepthSteps {
         self.frames = [None; FRAMES_KEPT];
     }
 
-    /// A tag's distance agreed with a range: the ranges are right, whatever the steps
-    /// summed to.
-    pub fn vouched(&mut self) {
+    /// Forgets what the steps summed to: a tag's distance agreed with a range (the ranges
+    /// are right), or the gyro the frames were held to each other by is doubted.
+    pub fn forget_steps(&mut self) {
         self.offset_mm = 0;
     }
 }
@@ -601,7 +604,7 @@ mod tests {
         assert_eq!(frame(&mut feed, 1_150), Err(Doubt::Jump));
         assert_eq!(frame(&mut feed, 1_002), Ok(()));
         assert_eq!(frame(&mut feed, 1_150), Err(Doubt::Jump));
-        feed.steps.vouched();
+        feed.steps.forget_steps();
         assert_eq!(frame(&mut feed, 1_150), Ok(()));
         // Frames too far apart are not held to each other.
         feed.moment_us += 200_000;

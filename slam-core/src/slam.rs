@@ -423,10 +423,17 @@ impl<const W: usize, const H: usize> Slam<W, H> {
     }
 
     /// Whether a tag's distance agreed with the last step's scan: the depth sensor's
-    /// ranges are right, so whatever its frames' steps summed to is forgotten
-    /// ([`crate::depth_step::DepthSteps::vouched`]).
+    /// ranges are right.
     pub fn depth_vouched(&self) -> bool {
         self.plausibility.depth_vouched()
+    }
+
+    /// Whether the depth task is to forget what its frames' steps summed to
+    /// ([`crate::depth_step::DepthSteps::forget_steps`]): a tag vouched for the ranges
+    /// ([`Slam::depth_vouched`]), or the last step doubted the gyro, by whose turn the
+    /// depth task holds each frame to the one before.
+    pub fn depth_steps_void(&self) -> bool {
+        self.plausibility.depth_vouched() || self.plausibility.trust().gyro.is_some()
     }
 
     /// Totals since start.

@@ -64,6 +64,7 @@ fn a_lost_gyro_holds_the_turn_withholds_scans_and_is_trusted_again() {
         assert!(r.cells_written > 0);
     }
     let before = heading_mdeg(&step(&mut slam, Some(TURN_MDPS)));
+    assert!(!slam.depth_steps_void());
 
     // The first tick without it: the robot was still turning; the last rate stands in,
     // the turn is held and the scan is not written.
@@ -71,6 +72,9 @@ fn a_lost_gyro_holds_the_turn_withholds_scans_and_is_trusted_again() {
     assert_eq!(lost.trust.gyro, Some(Doubt::Missing));
     assert_eq!(lost.trust.lacking(true, false), Some(Input::Gyro));
     assert_eq!(lost.cells_written, 0);
+    // The depth task holds its frames to each other by the gyro's turn: what their steps
+    // summed to while the gyro is doubted is void.
+    assert!(slam.depth_steps_void());
     let turned = heading_mdeg(&lost) - before;
     assert!((3_000..3_300).contains(&turned), "{turned} mdeg");
 

@@ -231,8 +231,8 @@ mod ranging {
                     let scan = DepthScan {
                         ranges_mm: beams.range_mm,
                     };
-                    if inputs.depth_vouched.swap(false, Ordering::Relaxed) {
-                        steps.vouched();
+                    if inputs.depth_steps_void.swap(false, Ordering::Relaxed) {
+                        steps.forget_steps();
                     }
                     // The gyro's integral now, a few milliseconds after the frame was
                     // seen ready: the heading at its moment.
