@@ -417,7 +417,7 @@ fn faults_of_a_minute_on_the_blocked_route_cost_nothing() {
 
 /// A gyro late, or dropping in and out, for a minute from 2 s on the blocked route,
 /// seeds 1 to 20: the route runs to its end, within 1 cm of the unfaulted run's end, and
-/// under `filter` with no cell out of place beyond its. The depth task holds each frame
+/// under `filter` with no more cells out of place than that run. The depth task holds each frame
 /// to the one before by the gyro's turn, so a turn the gyro read late moved every range
 /// of a slanted wall the same way: a step the depth sensor never made, which no opposite
 /// step took back and no tag in view vouched for, and a forward drive holds while the
