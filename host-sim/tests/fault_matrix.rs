@@ -390,60 +390,60 @@ fn faults_of_a_minute_on_the_blocked_route_cost_nothing() {
         (PoseMode::Filter, "camera-stuck@2/60", 0),
     ];
     for (pose, fault, most_added) in cases {
-        let faults = [fault.parse().expect("fault")];
-        for seed in 1..=20 {
-            let options = RunOptions {
-                faults: &faults,
-                ..RunOptions::default()
-            };
-            let (b, f) = &beside_unfaulted(&scenario, pose, seed, options);
-            let case = format!("{fault} {pose:?} seed {seed}");
-            assert_eq!(f.collisions, 0, "{case}");
+        each_seed_ends_near_unfaulted(&scenario, pose, fault, |case, b, f| {
             assert!(
                 f.out_of_place <= b.out_of_place + most_added,
                 "{case}: {} cells out of place, {} unfaulted",
                 f.out_of_place,
                 b.out_of_place
             );
-            assert!(
-                f.errors.final_error_cm <= b.errors.final_error_cm + 1.0,
-                "{case}: ends {:.1} cm off, {:.1} unfaulted",
-                f.errors.final_error_cm,
-                b.errors.final_error_cm
-            );
-        }
+        });
+    }
+}
+
+/// `fault` on seeds 1 to 20 of `scenario`, each run beside the same seed's without it:
+/// no collision and the end within 1 cm of the unfaulted run's; then `check` with the
+/// case's name, the unfaulted figures and the faulted ones.
+fn each_seed_ends_near_unfaulted(
+    scenario: &Scenario,
+    pose: PoseMode,
+    fault: &str,
+    mut check: impl FnMut(&str, &Figures, &Figures),
+) {
+    let faults = [fault.parse().expect("fault")];
+    for seed in 1..=20 {
+        let options = RunOptions {
+            faults: &faults,
+            ..RunOptions::default()
+        };
+        let (b, f) = &beside_unfaulted(scenario, pose, seed, options);
+        let case = format!("{fault} {pose:?} seed {seed}");
+        assert_eq!(f.collisions, 0, "{case}");
+        assert!(
+            f.errors.final_error_cm <= b.errors.final_error_cm + 1.0,
+            "{case}: ends {:.1} cm off, {:.1} unfaulted",
+            f.errors.final_error_cm,
+            b.errors.final_error_cm
+        );
+        check(&case, b, f);
     }
 }
 
 /// A gyro late, or dropping in and out, for a minute from 2 s on the blocked route,
 /// seeds 1 to 20: the route runs to its end, within 1 cm of the unfaulted run's end, and
-/// under `filter` with no more cells out of place than that run. The depth task holds each frame
-/// to the one before by the gyro's turn, so a turn the gyro read late moved every range
-/// of a slanted wall the same way: a step the depth sensor never made, which no opposite
-/// step took back and no tag in view vouched for, and a forward drive holds while the
-/// depth sensor is doubted. The route stood for good on seed 12 (late) and 19 (in and
+/// under `filter` with no more cells out of place than that run. The depth task holds
+/// each frame to the one before by the gyro's turn, so a turn the gyro read late moved
+/// every range of a slanted wall the same way: a step the depth sensor never made, which
+/// no opposite step took back and no tag in view vouched for, and a forward drive holds
+/// while the depth sensor is doubted. The route stood for good on seed 12 (late) and 19 (in and
 /// out). A doubted gyro now voids the steps summed ([`slam_core::Slam::depth_steps_void`]).
 #[test]
 fn a_gyro_late_or_in_and_out_for_a_minute_never_stalls_the_route() {
     let scenario = world::shipped::scenario("blocked-route.toml");
     for pose in [PoseMode::Filter, PoseMode::Slam] {
         for fault in ["gyro-slow@2/60", "gyro-intermittent@2/60"] {
-            let faults = [fault.parse().expect("fault")];
-            for seed in 1..=20 {
-                let options = RunOptions {
-                    faults: &faults,
-                    ..RunOptions::default()
-                };
-                let (b, f) = &beside_unfaulted(&scenario, pose, seed, options);
-                let case = format!("{fault} {pose:?} seed {seed}");
+            each_seed_ends_near_unfaulted(&scenario, pose, fault, |case, b, f| {
                 assert_eq!(f.route_cut_at_s, None, "{case}: the route never ended");
-                assert_eq!(f.collisions, 0, "{case}");
-                assert!(
-                    f.errors.final_error_cm <= b.errors.final_error_cm + 1.0,
-                    "{case}: ends {:.1} cm off, {:.1} unfaulted",
-                    f.errors.final_error_cm,
-                    b.errors.final_error_cm
-                );
                 if pose == PoseMode::Filter {
                     assert!(
                         f.out_of_place <= b.out_of_place,
@@ -452,7 +452,7 @@ fn a_gyro_late_or_in_and_out_for_a_minute_never_stalls_the_route() {
                         b.out_of_place
                     );
                 }
-            }
+            });
         }
     }
 }
