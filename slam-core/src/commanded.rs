@@ -25,6 +25,10 @@
 //! window, a reading outside what the newest command alone allows ([`unfollowed`]) a
 //! frame after it changed ([`RecentCommands::taken`]: on the first the motors may not
 //! have followed it at all) is taken as a guess, and no scan is vouched for on its tick.
+//! A guess of what: short of the command, the reading (a wheel may slip); past it, the
+//! command's own motion less what the frame before read past it ([`unfollowed_past`]):
+//! with the motors following within a tick, only a sensor behind the robot reads a motion
+//! ended a tick ago, and it read the same on the frame before.
 
 use crate::frame::{DriveCommand, FlowDelta, GyroRate};
 use crate::plausible::Doubt;
@@ -406,11 +410,32 @@ pub fn unfollowed(
     command: &DriveCommand,
     tolerance: &CommandTolerance,
 ) -> Unfollowed {
+    unfollowed_past(rate, flow, command, tolerance).0
+}
+
+/// [`unfollowed`], and which of those read past `command` ([`Doubt::Uncommanded`]: more
+/// motion than it allows, or motion the other way) rather than short of it
+/// ([`Doubt::Unmoved`]).
+pub fn unfollowed_past(
+    rate: Option<GyroRate>,
+    flow: Option<FlowDelta>,
+    command: &DriveCommand,
+    tolerance: &CommandTolerance,
+) -> (Unfollowed, Unfollowed) {
     let limits = Limits::of(&Reach::of(command), tolerance);
-    Unfollowed {
-        gyro: rate.is_some_and(|r| limits.turn(r.rate_mdps).is_err()),
-        flow: flow.is_some_and(|f| limits.drive(f.forward_counts).is_err()),
-    }
+    let gyro = rate.map_or(Ok(()), |r| limits.turn(r.rate_mdps));
+    let flow = flow.map_or(Ok(()), |f| limits.drive(f.forward_counts));
+    let past = Err(Doubt::Uncommanded);
+    (
+        Unfollowed {
+            gyro: gyro.is_err(),
+            flow: flow.is_err(),
+        },
+        Unfollowed {
+            gyro: gyro == past,
+            flow: flow == past,
+        },
+    )
 }
 
 #[cfg(test)]

@@ -24,7 +24,7 @@
 //! ([`crate::SensorFrame::depth_doubt`]).
 
 use crate::commanded::{
-    check_flow_commanded, check_gyro_commanded, unfollowed, CommandTolerance, RecentCommands,
+    check_flow_commanded, check_gyro_commanded, unfollowed_past, CommandTolerance, RecentCommands,
     Unfollowed, COMMAND_FRAMES,
 };
 use crate::depth_step::DepthStepConfig;
@@ -425,21 +425,27 @@ impl Judged {
 }
 
 /// The checks' state across ticks.
+///
+/// Laid out in the order written (`repr(C)`): what every tick reads first, within the
+/// M0+'s short load offsets, and what only a change of command reads last.
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+#[repr(C)]
 pub struct Plausibility {
     gyro: Watch,
     flow: Watch,
     depth: Watch,
-    gyro_repeats: Repeats<GyroRate>,
-    flow_repeats: Repeats<FlowDelta>,
     /// Whether a tag's distance agreed with the last tick's scan.
     depth_vouched: bool,
+    gyro_repeats: Repeats<GyroRate>,
+    flow_repeats: Repeats<FlowDelta>,
+    /// The motors' last commands, to check the gyro against.
+    commands: RecentCommands,
     /// The newest trusted readings taken while the robot was not held, to stand in for
     /// the tick a doubt begins.
     moving_gyro: Option<Moving<GyroRate>>,
     moving_flow: Option<Moving<FlowDelta>>,
-    /// The motors' last commands, to check the gyro against.
-    commands: RecentCommands,
+    /// What the first frame after the newest command's change read past its motion.
+    behind: Behind,
 }
 
 impl Plausibility {
@@ -551,7 +557,13 @@ impl Plausibility {
             let follows = Following::Follows;
             (Unfollowed::default(), follows, follows)
         } else {
-            following(gyro, flow, commands, &config.command)
+            following(
+                (gyro, flow),
+                trust,
+                commands,
+                &config.command,
+                &mut self.behind,
+            )
         };
         // Short of a steady command over the whole window: its every tick was missed.
         let (least_turn, least_speed) = commands.least();
@@ -604,6 +616,23 @@ impl Plausibility {
             unfollowed,
         }
     }
+
+    /// On a tick whose motion [`Judged::guessed`]: stands in for a reading past the newest
+    /// command a frame after it changed (a guess of the reading until now) that command's
+    /// motion, less what the frame before read past it. Out of the judging,
+    /// and cold: only on guessed ticks, which it leaves guessed.
+    #[cold]
+    #[inline(never)]
+    pub fn stand_in_past(&mut self, judged: &mut Judged) {
+        let behind = &mut self.behind;
+        let (gyro, flow) = behind.stand_ins;
+        if core::mem::take(&mut behind.past.0) {
+            judged.gyro = Known::StandIn(gyro);
+        }
+        if core::mem::take(&mut behind.past.1) {
+            judged.flow = Known::StandIn(flow);
+        }
+    }
 }
 
 /// How a trusted reading stands to the newest command.
@@ -615,36 +644,82 @@ enum Following {
     /// On the first frame after it changed: the motion, but no reference for the new
     /// command's.
     Changing,
-    /// Outside what it allows a frame after it changed ([`unfollowed`]): a guess.
+    /// Outside what it allows a frame after it changed ([`unfollowed_past`]): a guess.
+    /// Short of it, the reading (the robot may have made the motion, a sensor behind, or
+    /// not: a wheel may slip); past it, what [`Behind`] works out.
     Astray,
+}
+
+/// What the trusted readings of the first frame after a command changed held past its
+/// motion (the gyro's rate past its turn, the flow's forward counts past its drive), and
+/// the change they were read after ([`RecentCommands::changes`]). The motors follow a
+/// command within a tick, so a trusted reading still past it a frame later is a sensor
+/// behind the robot: the newest command's motion stands in for it, less what the frame
+/// before read past it.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+struct Behind {
+    changes: u8,
+    rate_mdps: i32,
+    forward_counts: i32,
+    /// Which of the gyro and the flow read past the newest command a frame after it
+    /// changed, and what stands in for each.
+    past: (bool, bool),
+    stand_ins: (GyroRate, FlowDelta),
 }
 
 /// How the gyro's and the flow's readings stand to the newest of `commands`, which are
 /// not steady: on the first frame after a change the motors may not have followed it at
-/// all; a frame later a reading outside what it allows ([`unfollowed`]) strays. Commands
-/// not known check nothing, as in the checks. Out of line and cold: only while the
-/// commands change.
+/// all (what a trusted reading holds past it is kept in `behind`); a frame later a reading
+/// outside what it allows ([`unfollowed_past`]) strays, and one trusted and past it has its
+/// stand-in worked out in `behind`. Commands not known check nothing, as in the checks.
+/// Out of line and cold: only while the commands change.
 #[cold]
 #[inline(never)]
 fn following(
-    gyro: Option<GyroRate>,
-    flow: Option<FlowDelta>,
+    (gyro, flow): (Option<GyroRate>, Option<FlowDelta>),
+    trust: Trust,
     commands: &RecentCommands,
     tolerance: &CommandTolerance,
+    behind: &mut Behind,
 ) -> (Unfollowed, Following, Following) {
     let follows = Following::Follows;
-    match commands.newest() {
-        None => (Unfollowed::default(), follows, follows),
-        Some(_) if !commands.taken() => {
-            let changing = Following::Changing;
-            (Unfollowed::default(), changing, changing)
-        }
-        Some(newest) => {
-            let off = unfollowed(gyro, flow, &newest, tolerance);
-            let of = |astray: bool| if astray { Following::Astray } else { follows };
-            (off, of(off.gyro), of(off.flow))
-        }
+    behind.past = (false, false);
+    let Some(newest) = commands.newest() else {
+        return (Unfollowed::default(), follows, follows);
+    };
+    let (off, past) = unfollowed_past(gyro, flow, &newest, tolerance);
+    // A reading past the command, trusted: it was (or is to be) integrated.
+    let gyro_past = past.gyro && trust.gyro.is_none();
+    let flow_past = past.flow && trust.flow.is_none();
+    if !commands.taken() {
+        let beyond = |is_past: bool, read: Option<i32>, motion: i32| {
+            read.filter(|_| is_past)
+                .map_or(0, |r| r.saturating_sub(motion))
+        };
+        behind.changes = commands.changes();
+        behind.rate_mdps = beyond(gyro_past, gyro.map(|g| g.rate_mdps), newest.turn_mdps);
+        behind.forward_counts =
+            beyond(flow_past, flow.map(|f| f.forward_counts), newest.speed_mm_s);
+        let changing = Following::Changing;
+        return (Unfollowed::default(), changing, changing);
     }
+    let (rate_back, forward_back) = if behind.changes == commands.changes() {
+        (behind.rate_mdps, behind.forward_counts)
+    } else {
+        (0, 0)
+    };
+    behind.past = (gyro_past, flow_past);
+    behind.stand_ins = (
+        GyroRate {
+            rate_mdps: newest.turn_mdps.saturating_sub(rate_back),
+        },
+        FlowDelta {
+            forward_counts: newest.speed_mm_s.saturating_sub(forward_back),
+            right_counts: 0,
+        },
+    );
+    let of = |astray: bool| if astray { Following::Astray } else { follows };
+    (off, of(off.gyro), of(off.flow))
 }
 
 /// A trusted reading taken while the robot was not held, with the command it was taken
@@ -668,9 +743,10 @@ fn commanded_flow(command: &DriveCommand) -> FlowDelta {
 }
 
 /// What to integrate of an input: its reading when trusted (or absent unheard: lost),
-/// only as a guess when it strays from the newest command a frame after it changed (the
-/// robot may have made the motion, a sensor behind, or not), and no reference for a doubt
-/// to come on the frame it changed; when doubted, still if the robot was held, else the
+/// only as a guess when it strays from the newest command a frame after it changed (short
+/// of it, the reading: the robot may have made the motion, a sensor behind, or not; past
+/// it, the reading until [`Plausibility::stand_in_past`] puts in its place what [`Behind`]
+/// works out), and no reference for a doubt to come on the frame it changed; when doubted, still if the robot was held, else the
 /// reading of the last trusted tick on which it was not held: a held motion resumes as it
 /// was when it stopped. That reading is as good as one while the `commands` are steady
 /// and the same as when it was read; when they changed of late (a turn ending, a drive
@@ -985,6 +1061,54 @@ mod tests {
         let j = p.judge(Some(rate(2)), Some(flow(0, 0)), None, Some(TURN), &C);
         assert_eq!(j.trust.gyro, Some(Doubt::Unmoved));
         assert_eq!(j.gyro, Known::StandIn(rate(3 * 31_500)));
+    }
+
+    #[test]
+    fn a_sensor_behind_its_command_as_the_motion_ends_is_taken_back() {
+        // A turn on the spot ends; the gyro, three ticks late, reads it on. On the first
+        // frame after the stop the motors may still have turned: the reading is the
+        // motion. A frame later a reading past the stop is a sensor behind: what the
+        // frame before read past it is taken back, so that the two frames together hold
+        // the stop's motion (none), and the scan is not vouched for.
+        // As the core judges: a guessed tick's readings past a command stand in for it.
+        let judge = |p: &mut Plausibility, g: i32, f: i32, c: DriveCommand| {
+            let mut j = p.judge(Some(rate(g)), Some(flow(f, 0)), None, Some(c), &C);
+            if j.guessed() {
+                p.stand_in_past(&mut j);
+            }
+            j
+        };
+        let mut p = after_a_turn();
+        let j = judge(&mut p, 31_504, 0, STOP);
+        assert_eq!(j.gyro, Known::Read(rate(31_504)));
+        let j = judge(&mut p, 31_505, 1, STOP);
+        assert_eq!(j.trust, Trust::default());
+        assert_eq!((j.unfollowed.gyro, j.unfollowed.flow), (true, false));
+        assert_eq!(j.gyro, Known::StandIn(rate(-31_504)));
+        // The third reads past every command of the window: doubted, and the robot is
+        // taken as standing.
+        let j = judge(&mut p, 31_506, 0, STOP);
+        assert_eq!(j.trust.gyro, Some(Doubt::Uncommanded));
+        assert_eq!(j.gyro, Known::Still);
+
+        // The flow alike as a drive gives way to a turn on the spot.
+        let mut p = Plausibility::default();
+        for i in 0..4 {
+            p.judge(Some(rate(i)), Some(flow(86 - i, 0)), None, Some(DRIVE), &C);
+        }
+        let j = judge(&mut p, 31_500, 84, TURN);
+        assert_eq!(j.flow, Known::Read(flow(84, 0)));
+        let j = judge(&mut p, 31_501, 85, TURN);
+        assert_eq!(j.flow, Known::StandIn(flow(-84, 0)));
+        assert_eq!(j.gyro, Known::Read(rate(31_501)));
+
+        // Only a frame right after its own change is taken back: a reading past the
+        // command two changes on takes back nothing.
+        let mut p = after_a_turn();
+        judge(&mut p, 31_504, 0, STOP);
+        judge(&mut p, 0, 0, DRIVE);
+        let j = judge(&mut p, 31_505, 86, DRIVE);
+        assert_eq!(j.gyro, Known::StandIn(rate(0)));
     }
 
     #[test]

@@ -492,7 +492,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
 
         // What the picture's tags say of the depth scan, where the checks ask.
         let mut witness = Witness::Silent;
-        let judged = match &self.config.plausible {
+        let mut judged = match &self.config.plausible {
             Some(limits) => {
                 let depth = frame.depth.as_ref().map(|scan| {
                     witness = self.tags_on_depth(frame, limits);
@@ -508,10 +508,12 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             None => Judged::believing(frame.gyro, frame.flow),
         };
         let trust = judged.trust;
-        // A tick whose motion is a guess: what corrects the pose next mends the guess, not
-        // the poses of the scans the sweep holds.
-        #[cfg(feature = "matching")]
+        // A tick whose motion is a guess: a reading past a command just changed stands in
+        // that command's motion; what corrects the pose next mends the guess, not the poses
+        // of the scans the sweep holds.
         if judged.guessed() {
+            self.plausibility.stand_in_past(&mut judged);
+            #[cfg(feature = "matching")]
             self.sweep.anchor();
         }
         self.counters.gyro_doubted += trust.gyro.is_some() as u32;
@@ -561,6 +563,9 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         let cells_written = match scan {
             #[cfg(feature = "matching")]
             Some((scan, Some(then))) if self.config.matching.is_some() => {
+                if !self.estimator.heading_matchable() {
+                    self.withhold_leaving();
+                }
                 self.sweep_scan(scan, &then)
             }
             // Without matching nothing ties the map to itself: the filter must also be
@@ -897,16 +902,35 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         written.unwrap_or(0)
     }
 
+    /// With the heading too unsure for the matches to find it
+    /// ([`Estimator::heading_matchable`]): the scan the sweep lets go next is not mapped,
+    /// but the sweep is still matched, so that a match can bring the heading back.
+    #[cfg(feature = "matching")]
+    #[cold]
+    #[inline(never)]
+    fn withhold_leaving(&mut self) {
+        if self.sweep.forget_leaving() {
+            self.counters.scans_withheld += 1;
+        }
+    }
+
     /// On a tick that brings the sweep no scan, writes into the map the scans that have
     /// been in it for [`SWEEP_TICKS`] ticks, as a scan coming in would have pushed them
-    /// out ([`Sweep::expired`]); returns the cells written. Without matching, nothing.
+    /// out ([`Sweep::expired`]), or lets them go unmapped while the heading is too unsure
+    /// to match ([`Estimator::heading_matchable`]); returns the cells written. Without
+    /// matching, nothing.
     #[cold]
     #[inline(never)]
     fn expire_sweep(&mut self) -> u32 {
         #[cfg(feature = "matching")]
         if self.config.matching.is_some() {
             let mut written = 0;
+            let mapped = self.estimator.heading_matchable();
             while let Some(old) = self.sweep.expired(self.counters.ticks, SWEEP_TICKS as u32) {
+                if !mapped {
+                    self.counters.scans_withheld += 1;
+                    continue;
+                }
                 written += self.map_scan(&old.scan, &old.pose);
                 self.map_uncertainty.wrote(&self.estimator);
             }

@@ -41,6 +41,12 @@ pub const MAPPED_POSITION_SD_MM: i64 = 15;
 /// The heading's deviation likewise, millidegrees: three deviations, 3 degrees, move a
 /// wall a metre away by a cell.
 pub const MAPPED_HEADING_SD_MDEG: i64 = 1_000;
+/// The heading's deviation within which scans are mapped with matching
+/// ([`Estimator::heading_matchable`]), millidegrees: at 5 degrees the truth lies outside
+/// the 4 degrees either way the matches search two times in five, and they no longer keep
+/// the pose on the map. No shipped world's route comes near it without a fault (4.1
+/// degrees at most, room-10m before its first tag).
+pub const MATCHED_HEADING_SD_MDEG: i64 = 5_000;
 /// Updates after [`Estimator::forget_heading`] that settle the whole matrix.
 const SETTLED_FULLY_AFTER_FORGETTING: u8 = 30;
 
@@ -310,6 +316,15 @@ impl Estimator {
         self.settle_fully = SETTLED_FULLY_AFTER_FORGETTING;
         self.ungated = true;
         true
+    }
+
+    /// Whether the heading is known well enough for a scan to be mapped at it with
+    /// matching (within `MATCHED_HEADING_SD_MDEG`): past that, as after many turns each
+    /// taken as a guess, the matches cannot find the heading, and the map is left as it
+    /// was until they or a tag have brought it back.
+    pub fn heading_matchable(&self) -> bool {
+        let heading = square(units::heading_from_mdeg(MATCHED_HEADING_SD_MDEG));
+        self.p.get(State::Heading, State::Heading) <= heading
     }
 
     /// Whether the pose is known well enough for a scan to be mapped at it without
@@ -586,6 +601,24 @@ mod tests {
         // A tick without the gyro adds a stale reading's 3 degrees: too unsure to map.
         let (heading_added, _) = after_unseen(config::STALE_PERIOD_US);
         assert!(heading_added > heading(MAPPED_HEADING_SD_MDEG));
+    }
+
+    #[test]
+    fn with_matching_a_scan_is_mapped_only_while_the_heading_is_within_its_bound() {
+        let heading = square(units::heading_from_mdeg(MATCHED_HEADING_SD_MDEG));
+        let with = |i: State, variance: i64| {
+            let mut e = Estimator::new(EstimatorConfig::SEED);
+            e.p.replace(i, variance);
+            e.heading_matchable()
+        };
+        assert!(Estimator::new(EstimatorConfig::SEED).heading_matchable());
+        assert!(with(State::Heading, heading));
+        assert!(!with(State::Heading, heading + 1));
+        // The position is the matches' to find, however unsure.
+        assert!(with(State::X, square(units::position_from_um(2_000_000))));
+        // One tick without the gyro is not past it; a few are.
+        let (one, _) = after_unseen(config::STALE_PERIOD_US);
+        assert!(one < heading && 3 * one > heading);
     }
 
     #[test]

@@ -137,6 +137,14 @@ impl<const N: usize> Sweep<N> {
         Some((&s.scan, self.carried(0, &s.pose)))
     }
 
+    /// Forgets the scan the next push would take out ([`Sweep::leaving`]), so that it is
+    /// never mapped; whether there was one.
+    pub fn forget_leaving(&mut self) -> bool {
+        self.scans
+            .get_mut(self.next)
+            .is_some_and(|slot| slot.take().is_some())
+    }
+
     /// [`Sweep::push`] without handing the oldest back: the scan is copied straight into
     /// its slot, where one moved in and out by value is copied twice on the M0+.
     pub fn push_in_place(&mut self, tick: u32, pose: &Pose, scan: &DepthScan) {
@@ -303,7 +311,8 @@ mod tests {
     use crate::lcg::Lcg;
     use crate::pose::{Pose, RigidMotion};
 
-    /// Pushes, corrections, anchors, settles, scans expiring and reads in a random order:
+    /// Pushes, corrections, anchors, settles, scans expiring or forgotten and reads in a
+    /// random order:
     /// every pose read out of a sweep that records its corrections is the pose of one that
     /// applies each at once to every scan pushed since the last anchor, and a scan
     /// expires, oldest first, once it is old enough.
@@ -359,6 +368,14 @@ mod tests {
                 _ if rng.within(10) == 0 => {
                     eager.clear();
                     lazy.clear();
+                }
+                _ if rng.within(4) == 0 => {
+                    // The scan a push would take out is forgotten, never handed back.
+                    let full = eager.len() == N;
+                    if full {
+                        eager.remove(0);
+                    }
+                    assert_eq!(lazy.forget_leaving(), full, "step {step}");
                 }
                 _ if rng.within(2) == 0 => {
                     for (_, anchored) in &mut eager {
