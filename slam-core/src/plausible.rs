@@ -742,17 +742,18 @@ fn commanded_flow(command: &DriveCommand) -> FlowDelta {
     }
 }
 
-/// What to integrate of an input: its reading when trusted (or absent unheard: lost),
-/// only as a guess when it strays from the newest command a frame after it changed (short
-/// of it, the reading: the robot may have made the motion, a sensor behind, or not; past
-/// it, the reading until [`Plausibility::stand_in_past`] puts in its place what [`Behind`]
-/// works out), and no reference for a doubt to come on the frame it changed; when doubted, still if the robot was held, else the
-/// reading of the last trusted tick on which it was not held: a held motion resumes as it
-/// was when it stopped. That reading is as good as one while the `commands` are steady
-/// and the same as when it was read; when they changed of late (a turn ending, a drive
-/// beginning) it only stands in, and only if it was read under the newest command: read
-/// under another (a turn's flow, for a drive resumed after a hold), the newest command's
-/// own motion (`commanded`) stands in, since the motors follow a command within a tick.
+/// What to integrate of an input: its reading when trusted (or absent unheard: lost), only
+/// as a guess when it strays from the newest command a frame after it changed (short of it,
+/// the reading: the robot may have made the motion, a sensor behind, or not; past it, the
+/// reading until [`Plausibility::stand_in_past`] puts in its place what [`Behind`] works
+/// out), and no reference for a doubt to come on the frame it changed; when doubted, still
+/// if the robot was held, else the reading of the last trusted tick on which it was not
+/// held: a held motion resumes as it was when it stopped. That reading is as good as one
+/// while the `commands` are steady and the same as when it was read; when they changed of
+/// late (a turn ending, a drive beginning) it only stands in, and only if it was read under
+/// the newest command: read under another (a turn's flow, for a drive resumed after a
+/// hold), the newest command's own motion (`commanded`) stands in, since the motors follow
+/// a command within a tick.
 /// (The reading is the better guess where there is one: the command's counts leave out
 /// the flow sensor's scale.)
 /// Steady at a command that does not move the robot this way (`idle`: a turn on the spot
