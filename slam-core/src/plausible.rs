@@ -579,9 +579,7 @@ impl Plausibility {
                 gyro_following,
                 commands,
                 |c| c.turn_mdps == 0,
-                |c| GyroRate {
-                    rate_mdps: c.turn_mdps,
-                },
+                commanded_gyro,
                 &mut self.moving_gyro,
             ),
         };
@@ -625,12 +623,12 @@ impl Plausibility {
     #[inline(never)]
     pub fn stand_in_past(&mut self, judged: &mut Judged) {
         let behind = &mut self.behind;
-        let (gyro, flow) = behind.stand_ins;
+        let motion = behind.stand_in;
         if core::mem::take(&mut behind.past.0) {
-            judged.gyro = Known::StandIn(gyro);
+            judged.gyro = Known::StandIn(commanded_gyro(&motion));
         }
         if core::mem::take(&mut behind.past.1) {
-            judged.flow = Known::StandIn(flow);
+            judged.flow = Known::StandIn(commanded_flow(&motion));
         }
     }
 }
@@ -662,9 +660,10 @@ struct Behind {
     rate_mdps: i32,
     forward_counts: i32,
     /// Which of the gyro and the flow read past the newest command a frame after it
-    /// changed, and what stands in for each.
+    /// changed, and the motion that stands in for them: the command's, less what the
+    /// frame before read past it.
     past: (bool, bool),
-    stand_ins: (GyroRate, FlowDelta),
+    stand_in: DriveCommand,
 }
 
 /// How the gyro's and the flow's readings stand to the newest of `commands`, which are
@@ -709,15 +708,10 @@ fn following(
         (0, 0)
     };
     behind.past = (gyro_past, flow_past);
-    behind.stand_ins = (
-        GyroRate {
-            rate_mdps: newest.turn_mdps.saturating_sub(rate_back),
-        },
-        FlowDelta {
-            forward_counts: newest.speed_mm_s.saturating_sub(forward_back),
-            right_counts: 0,
-        },
-    );
+    behind.stand_in = DriveCommand {
+        speed_mm_s: newest.speed_mm_s.saturating_sub(forward_back),
+        turn_mdps: newest.turn_mdps.saturating_sub(rate_back),
+    };
     let of = |astray: bool| if astray { Following::Astray } else { follows };
     (off, of(off.gyro), of(off.flow))
 }
@@ -731,6 +725,13 @@ struct Moving<T> {
     changes: u8,
     /// The newest command then, if known.
     command: Option<DriveCommand>,
+}
+
+/// The gyro's rate under `command`: its turn.
+fn commanded_gyro(command: &DriveCommand) -> GyroRate {
+    GyroRate {
+        rate_mdps: command.turn_mdps,
+    }
 }
 
 /// The flow a tick of `command`'s drive reads: one count a tick per millimetre a second
