@@ -34,6 +34,7 @@ pub struct SpinScan {
 /// The turn's measured excess: how far its integrated heading ran past the true one over
 /// the turn, positive when the heading turned further than the robot.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Closure {
     /// The excess, millidegrees.
     pub excess_mdeg: i32,
@@ -59,6 +60,7 @@ impl Closure {
 
 /// Why a turn's closure was not measured.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ClosureRefusal {
     /// The scans do not turn a full turn, one way, less the fan: their ends do not look
     /// the same way.
@@ -106,85 +108,210 @@ struct Reading {
     range_mm: i32,
 }
 
+/// The slides searched: every [`SLIDE_MDEG`] over [`MAX_EXCESS_MDEG`] each way.
+const STEPS: usize = (2 * MAX_EXCESS_MDEG / SLIDE_MDEG) as usize + 1;
+
 /// Measures the excess of the turn `scans` made, each scan's beams at `beam_angles`
 /// from its heading. The scans are consecutive ticks of one turn on the spot, in order.
+/// All at once: [`Search`] does it in pieces.
 pub fn measure(
     scans: &[SpinScan],
     beam_angles: &[Angle; BEAMS],
 ) -> Result<Closure, ClosureRefusal> {
-    let mut total = 0;
-    each_turn(scans, |turn, _| total = turn);
-    let sign = if total < 0 { -1 } else { 1 };
-    let fan = fan_mdeg(beam_angles);
-    // The ends must look at least half the fan's width the same way.
-    if total.saturating_mul(sign) < 360_000 - fan / 2 {
-        return Err(ClosureRefusal::NotAFullTurn);
+    let mut search = Search::new();
+    search.start(scans, beam_angles)?;
+    while !search.search(scans, usize::MAX) {}
+    search.finish()
+}
+
+/// A closure measured in pieces ([`Search::search`], a few scans at a time), so that a
+/// caller can let other work run in between; the same result as [`measure`], bit for bit.
+/// Built in place ([`Search::new`], then [`Search::start`]): it holds the first scans'
+/// profile and the slides' costs, a few kilobytes.
+#[derive(Clone, Debug)]
+pub struct Search {
+    /// The turn from the first scan to the last, millidegrees, and its sign.
+    total: i32,
+    sign: i32,
+    /// Each beam's bearing from the heading, along the turn.
+    beams: [i32; BEAMS],
+    /// How far along the turn a reading is laid over the profile.
+    reach: i32,
+    /// The first scans' readings, by bearing along the turn.
+    profile: [Reading; PROFILE_READINGS],
+    held: usize,
+    /// Each slide's capped squared disagreements and their count.
+    sums: [i64; STEPS],
+    counts: [u32; STEPS],
+    /// The next scan to lay over the profile and its next beam, whether its turn is
+    /// counted yet, and the turn so far (binary units, unwrapped) at the last heading
+    /// counted.
+    next: usize,
+    beam: usize,
+    entered: bool,
+    bits: i64,
+    last: Angle,
+}
+
+impl Default for Search {
+    fn default() -> Self {
+        Self::new()
     }
-    let beams = beam_angles.map(|a| a.to_millidegrees() * sign);
-    // The first scans' readings, by bearing along the turn.
-    let mut profile = [Reading::default(); PROFILE_READINGS];
-    let mut held = 0;
-    each_reading(scans, &beams, sign, |turn, r| {
-        if turn < PROFILE_MDEG && held < PROFILE_READINGS {
-            profile[held] = r;
-            held += 1;
+}
+
+impl Search {
+    /// Nothing searched: all zero bits (a `static` holding one lies in zeroed RAM).
+    pub const fn new() -> Search {
+        Search {
+            total: 0,
+            sign: 0,
+            beams: [0; BEAMS],
+            reach: 0,
+            profile: [Reading {
+                bearing_mdeg: 0,
+                range_mm: 0,
+            }; PROFILE_READINGS],
+            held: 0,
+            sums: [0; STEPS],
+            counts: [0; STEPS],
+            next: 0,
+            beam: 0,
+            entered: false,
+            bits: 0,
+            last: Angle::ZERO,
         }
-    });
-    let profile = &mut profile[..held];
-    profile.sort_unstable_by_key(|r| r.bearing_mdeg);
-    // The slide's cost at each step: capped squared disagreements and their count.
-    const STEPS: usize = (2 * MAX_EXCESS_MDEG / SLIDE_MDEG) as usize + 1;
-    let mut sums = [0i64; STEPS];
-    let mut counts = [0u32; STEPS];
-    let reach = 360_000 - fan - MAX_EXCESS_MDEG;
-    each_reading(scans, &beams, sign, |turn, r| {
-        if turn < reach {
-            return;
+    }
+
+    /// Starts measuring the turn `scans` made, as [`measure`] does: refused at once if
+    /// they do not turn a full turn; otherwise the first scans' profile, sorted.
+    pub fn start(
+        &mut self,
+        scans: &[SpinScan],
+        beam_angles: &[Angle; BEAMS],
+    ) -> Result<(), ClosureRefusal> {
+        let mut total = 0;
+        each_turn(scans, |turn, _| total = turn);
+        let sign = if total < 0 { -1 } else { 1 };
+        let fan = fan_mdeg(beam_angles);
+        // The ends must look at least half the fan's width the same way.
+        if total.saturating_mul(sign) < 360_000 - fan / 2 {
+            return Err(ClosureRefusal::NotAFullTurn);
         }
-        for (k, (sum, count)) in sums.iter_mut().zip(counts.iter_mut()).enumerate() {
-            let slide = k as i32 * SLIDE_MDEG - MAX_EXCESS_MDEG;
-            let at = r.bearing_mdeg - 360_000 - slide;
-            if let Some(seen) = interpolate(profile, at) {
-                *sum += disagreement_q8(r.range_mm, seen);
-                *count += 1;
+        let beams = beam_angles.map(|a| a.to_millidegrees() * sign);
+        let (profile, mut held) = (&mut self.profile, 0);
+        each_reading(scans, &beams, sign, |turn, r| {
+            if turn < PROFILE_MDEG && held < PROFILE_READINGS {
+                profile[held] = r;
+                held += 1;
+            }
+        });
+        sort_by_bearing(&mut profile[..held]);
+        self.total = total;
+        self.sign = sign;
+        self.beams = beams;
+        self.reach = 360_000 - fan - MAX_EXCESS_MDEG;
+        self.held = held;
+        self.sums = [0; STEPS];
+        self.counts = [0; STEPS];
+        self.next = 0;
+        self.beam = 0;
+        self.entered = false;
+        self.bits = 0;
+        self.last = scans.first().map_or(Angle::ZERO, |s| s.heading);
+        Ok(())
+    }
+
+    /// Lays up to `pieces` more readings of `scans` (the same as given to
+    /// [`Search::start`]) over the profile, each at every slide; `true` once every scan
+    /// has been. A reading is the piece: a scan's eight at once outlast a sensor task's
+    /// read on the M0+.
+    pub fn search(&mut self, scans: &[SpinScan], pieces: usize) -> bool {
+        let profile = self.profile.get(..self.held).unwrap_or(&[]);
+        let mut left = pieces;
+        while let Some(s) = scans.get(self.next) {
+            if !self.entered {
+                self.bits += i64::from(s.heading.diff(self.last));
+                self.last = s.heading;
+                self.entered = true;
+            }
+            let turn = turn_mdeg(self.bits).saturating_mul(self.sign);
+            let readings = s.ranges_mm.iter().zip(&self.beams).skip(self.beam);
+            for (range, beam) in readings.take_while(|_| turn >= self.reach) {
+                if left == 0 {
+                    return false;
+                }
+                self.beam += 1;
+                let Some(range) = range else { continue };
+                left -= 1;
+                let (bearing, range) = (turn + beam, i32::from(*range));
+                for (k, (sum, count)) in self.sums.iter_mut().zip(&mut self.counts).enumerate() {
+                    let slide = k as i32 * SLIDE_MDEG - MAX_EXCESS_MDEG;
+                    if let Some(seen) = interpolate(profile, bearing - 360_000 - slide) {
+                        *sum += disagreement_q8(range, seen);
+                        *count += 1;
+                    }
+                }
+            }
+            self.next += 1;
+            self.beam = 0;
+            self.entered = false;
+        }
+        true
+    }
+
+    /// The closure the slides found: the best, refined between its neighbours, and how
+    /// sure it is.
+    pub fn finish(&self) -> Result<Closure, ClosureRefusal> {
+        let (sums, counts) = (&self.sums, &self.counts);
+        let judged = |k: usize| (counts[k] >= MIN_COMPARED).then(|| (sums[k], counts[k]));
+        // The best slide: the least mean cost (compared as cross products, no division).
+        let mut best: Option<usize> = None;
+        for k in 0..STEPS {
+            let Some((s, n)) = judged(k) else { continue };
+            let better = best.and_then(judged).is_none_or(|(bs, bn)| {
+                i128::from(s) * i128::from(bn) < i128::from(bs) * i128::from(n)
+            });
+            if better {
+                best = Some(k);
             }
         }
-    });
-    let judged = |k: usize| (counts[k] >= MIN_COMPARED).then(|| (sums[k], counts[k]));
-    // The best slide: the least mean cost (compared as cross products, no division).
-    let mut best: Option<usize> = None;
-    for k in 0..STEPS {
-        let Some((s, n)) = judged(k) else { continue };
-        let better = best
-            .and_then(judged)
-            .is_none_or(|(bs, bn)| i128::from(s) * i128::from(bn) < i128::from(bs) * i128::from(n));
-        if better {
-            best = Some(k);
+        let k = best.ok_or(ClosureRefusal::TooFewReadings)?;
+        if k == 0 || k == STEPS - 1 {
+            return Err(ClosureRefusal::NoClosure);
+        }
+        let mean = |k: usize| judged(k).map(|(s, n)| s * 256 / i64::from(n));
+        let slide = k as i32 * SLIDE_MDEG - MAX_EXCESS_MDEG;
+        // The parabola through the best and its neighbours, where both are judged: its
+        // vertex refines the slide.
+        let refined = match (mean(k - 1), mean(k), mean(k + 1)) {
+            (Some(before), Some(at), Some(after)) if before - 2 * at + after > 0 => {
+                let curve = before - 2 * at + after;
+                let offset = i64::from(SLIDE_MDEG) * (before - after) / (2 * curve);
+                slide + offset.clamp(-i64::from(SLIDE_MDEG), i64::from(SLIDE_MDEG)) as i32
+            }
+            _ => slide,
+        };
+        let sd_mdeg = spread_mdeg(&mean, STEPS, counts[k]);
+        Ok(Closure {
+            excess_mdeg: refined,
+            turn_mdeg: self.total,
+            compared: counts[k],
+            sd_mdeg,
+        })
+    }
+}
+
+/// Sorts `readings` by bearing: an insertion sort, as the turn lays them nearly in order
+/// already (one scan's beams across the fan, then the next scan's a little further on),
+/// in a few hundred bytes of code where the library's sort takes kilobytes.
+fn sort_by_bearing(readings: &mut [Reading]) {
+    for i in 1..readings.len() {
+        let mut j = i;
+        while j > 0 && readings[j - 1].bearing_mdeg > readings[j].bearing_mdeg {
+            readings.swap(j - 1, j);
+            j -= 1;
         }
     }
-    let k = best.ok_or(ClosureRefusal::TooFewReadings)?;
-    if k == 0 || k == STEPS - 1 {
-        return Err(ClosureRefusal::NoClosure);
-    }
-    let mean = |k: usize| judged(k).map(|(s, n)| s * 256 / i64::from(n));
-    let slide = k as i32 * SLIDE_MDEG - MAX_EXCESS_MDEG;
-    // The parabola through the best and its neighbours, where both are judged: its
-    // vertex refines the slide.
-    let refined = match (mean(k - 1), mean(k), mean(k + 1)) {
-        (Some(before), Some(at), Some(after)) if before - 2 * at + after > 0 => {
-            let curve = before - 2 * at + after;
-            let offset = i64::from(SLIDE_MDEG) * (before - after) / (2 * curve);
-            slide + offset.clamp(-i64::from(SLIDE_MDEG), i64::from(SLIDE_MDEG)) as i32
-        }
-        _ => slide,
-    };
-    let sd_mdeg = spread_mdeg(&mean, STEPS, counts[k]);
-    Ok(Closure {
-        excess_mdeg: refined,
-        turn_mdeg: total,
-        compared: counts[k],
-        sd_mdeg,
-    })
 }
 
 /// The spread of the slides about their weighted mean, millidegrees, each weighted by
@@ -252,13 +379,14 @@ fn each_turn(scans: &[SpinScan], mut f: impl FnMut(i32, &SpinScan)) {
     for s in scans {
         bits += i64::from(s.heading.diff(last));
         last = s.heading;
-        // 2^32 bits a turn; within i32 for any turn under 5,965 turns.
-        let mdeg = (bits * 360_000) >> 32;
-        f(
-            mdeg.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32,
-            s,
-        );
+        f(turn_mdeg(bits), s);
     }
+}
+
+/// An unwrapped turn of `bits` binary units in millidegrees: 2^32 bits a turn, within
+/// i32 for any turn under 5,965 turns.
+fn turn_mdeg(bits: i64) -> i32 {
+    ((bits * 360_000) >> 32).clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
 }
 
 /// Calls `f` with each valid reading of `scans` and its scan's turn from the first,

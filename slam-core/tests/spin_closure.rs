@@ -6,7 +6,7 @@
 mod reference;
 
 use reference::Lcg;
-use slam_core::spin_closure::{measure, ClosureRefusal, SpinScan};
+use slam_core::spin_closure::{measure, ClosureRefusal, Search, SpinScan};
 use slam_core::{Angle, GuardConfig, BEAMS};
 use world::shipped::scenario;
 use world::solid::{Vec2, World};
@@ -166,4 +166,26 @@ fn what_is_not_a_closure_is_refused() {
         })
         .collect();
     assert_eq!(measure(&blind, &beams), Err(ClosureRefusal::TooFewReadings));
+}
+
+/// The closure searched in pieces, a few readings between yields as the firmware does it
+/// ([`Search`]), is the one measured at once, bit for bit, however the pieces fall.
+#[test]
+fn a_closure_searched_in_pieces_is_the_one_measured_at_once() {
+    let beams = GuardConfig::SEED.beam_angles;
+    for (seed, direction) in [(1, 1.0), (2, -1.0), (3, 1.0)] {
+        let scans = spin(1200.0, 900.0, direction, 0.0075, seed);
+        let whole = measure(&scans, &beams);
+        assert!(whole.is_ok(), "seed {seed}: {whole:?}");
+        for pieces in [1, 3, 8, 17] {
+            let mut search = Search::new();
+            assert_eq!(search.start(&scans, &beams), Ok(()));
+            let mut turns = 0;
+            while !search.search(&scans, pieces) {
+                turns += 1;
+            }
+            assert!(turns > 0, "seed {seed}: {pieces} a piece took no turns");
+            assert_eq!(search.finish(), whole, "seed {seed}, {pieces} a piece");
+        }
+    }
 }
