@@ -27,6 +27,9 @@ use crate::{
     wall_turn::{self, WallTurn},
 };
 
+#[cfg(feature = "matching")]
+pub mod first_turn;
+
 /// The depth sensor's fan and the mapper's range limit.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

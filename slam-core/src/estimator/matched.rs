@@ -128,6 +128,18 @@ impl MapUncertainty {
     /// Scans over which the running mean forgets, as a power of two.
     pub const MEMORY_SHIFT: u32 = 6;
 
+    /// A map drawn all at once while the filter is as `estimator` says (a turn drawn again
+    /// once it closed, [`crate::slam::first_turn`]).
+    pub fn drawn_at(estimator: &Estimator) -> MapUncertainty {
+        let p = estimator.covariance();
+        MapUncertainty {
+            xx: p.get(State::X, State::X),
+            yy: p.get(State::Y, State::Y),
+            xy: p.get(State::X, State::Y),
+            heading: p.get(State::Heading, State::Heading),
+        }
+    }
+
     /// Follows one scan written into the map while the filter is as `estimator` says.
     pub fn wrote(&mut self, estimator: &Estimator) {
         let p = estimator.covariance();
@@ -461,9 +473,51 @@ impl Estimator {
         }
         let learned = i64::from(self.calibration().flow_scale_ppm);
         let nu = units::scale_from_ppm(i64::from(measured.scale_ppm) - learned);
-        Some(self.stepped(then, MATCH_STEP_UM, |trial, widened| {
+        Some(self.measured(then, MATCH_STEP_UM, State::FlowScale, nu, sd))
+    }
+
+    /// Updates the filter from a measurement of the gyro's scale, `scale_ppm` with
+    /// deviation `sd_ppm`, taken at `then`, the pose now (a turn's closure,
+    /// [`crate::spin_closure`]). Returns the corrected pose, or why it was refused.
+    pub fn apply_gyro_scale(
+        &mut self,
+        then: &Pose,
+        scale_ppm: i32,
+        sd_ppm: i32,
+    ) -> Result<Pose, MatchRefusal> {
+        let sd = units::scale_from_ppm(i64::from(sd_ppm)).max(1);
+        let learned = i64::from(self.calibration().gyro_scale_ppm);
+        let nu = units::scale_from_ppm(i64::from(scale_ppm) - learned);
+        self.measured(then, u32::MAX, State::GyroScale, nu, sd)
+    }
+
+    /// Updates the filter from a measurement of the heading, `off_mdeg` from the heading
+    /// of `then`, the pose now, with deviation `sd_mdeg` (a turn's closure). Returns the
+    /// corrected pose, or why it was refused.
+    pub fn apply_heading(
+        &mut self,
+        then: &Pose,
+        off_mdeg: i32,
+        sd_mdeg: i32,
+    ) -> Result<Pose, MatchRefusal> {
+        let sd = units::heading_from_mdeg(i64::from(sd_mdeg)).max(1);
+        let nu = units::heading_from_mdeg(i64::from(off_mdeg));
+        self.measured(then, u32::MAX, State::Heading, nu, sd)
+    }
+
+    /// One state measured directly: innovation `nu` and deviation `sd`, the state's own
+    /// units, through [`Estimator::stepped`].
+    fn measured(
+        &mut self,
+        then: &Pose,
+        step_um: u32,
+        state: State,
+        nu: i64,
+        sd: i64,
+    ) -> Result<Pose, MatchRefusal> {
+        self.stepped(then, step_um, |trial, widened| {
             let scalar = Scalar {
-                h: [(State::FlowScale, 1 << 16), (State::X, 0), (State::Y, 0)],
+                h: [(state, 1 << 16), (State::X, 0), (State::Y, 0)],
                 nu,
                 r: (sd * sd).saturating_mul(1 << widened),
                 floor: 0,
@@ -471,7 +525,7 @@ impl Estimator {
             let mut fine = [0i64; N];
             trial.update_pair(scalar, None, &mut fine)?;
             Ok(fine)
-        }))
+        })
     }
 
     /// One update, `attempt`, tried on a copy of the filter with its measurement's
