@@ -638,9 +638,11 @@ fn cmd_bench(args: BenchArgs) -> Result<(), Failure> {
         slam.reset(start);
         let mut walls = slam_core::wall_rate::WallRate::default();
         let mut turn = slam_core::wall_turn::WallTurn::default();
+        let mut first_turn = Box::new(slam_core::slam::first_turn::FirstTurn::new());
         for frame in &frames {
             let report = slam.step(std::hint::black_box(frame));
             let report = slam.measure_walls(&mut walls, &mut turn, frame, report);
+            let report = slam.close_first_turn(&mut first_turn, frame, report);
             fixes += u32::from(report.fix == slam_core::FixOutcome::Taken);
         }
     }

@@ -21,6 +21,7 @@ use crate::run::{slam_config, to_core_pose, PoseMode, GRID_SIDES};
 use crate::scenario::Scenario;
 use crate::telemetry::TelemetryWriter;
 use serde::Serialize;
+use slam_core::slam::first_turn::FirstTurn;
 use slam_core::wall_rate::WallRate;
 use slam_core::wall_turn::WallTurn;
 use slam_core::{GridMap, Slam};
@@ -315,6 +316,9 @@ impl Run<'_> {
         // keeps them beside its core.
         let mut walls = WallRate::default();
         let mut turn = WallTurn::default();
+        // The run's first turn on the spot, kept until it closes, unless the recording
+        // starts after the run's first tick (a robot resumed after a reset).
+        let mut first_turn: Option<Box<FirstTurn>> = None;
         // The robot's number of the last `Tick` it sent: map chunks after it belong to it.
         let mut robot_tick: Option<u32> = None;
         for message in self.messages {
@@ -337,7 +341,15 @@ impl Run<'_> {
                             );
                         }
                     }
-                    last = Some(self.step(&mut slam, (&mut walls, &mut turn), &mut writer, i));
+                    let first = first_turn.get_or_insert_with(|| {
+                        let mut first = Box::new(FirstTurn::new());
+                        if i.tick != 1 {
+                            first.resume();
+                        }
+                        first
+                    });
+                    last =
+                        Some(self.step(&mut slam, (&mut walls, &mut turn, first), &mut writer, i));
                     summary.steps += 1;
                 }
                 Message::Tick(t) => {
@@ -393,12 +405,13 @@ impl Run<'_> {
     fn step<const W: usize, const H: usize>(
         &self,
         slam: &mut Slam<W, H>,
-        (walls, turn): (&mut WallRate, &mut WallTurn),
+        (walls, turn, first_turn): (&mut WallRate, &mut WallTurn, &mut FirstTurn),
         writer: &mut TelemetryWriter,
         i: &Inputs,
     ) -> (u32, Tick, Option<FilterState>) {
         let report = slam.step(&i.frame);
         let report = slam.measure_walls(walls, turn, &i.frame, report);
+        let report = slam.close_first_turn(first_turn, &i.frame, report);
         writer.tick(
             i.time_ms,
             &i.frame,

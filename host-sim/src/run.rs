@@ -13,6 +13,7 @@ use crate::score::{map_counts, out_of_place_mask, pose_errors, real_mask, MapCou
 use crate::telemetry::TelemetryWriter;
 use serde::Serialize;
 use slam_core::depth_step::{DepthSteps, ZoneTurn};
+use slam_core::slam::first_turn::{FirstTurn, GiveUp, Outcome};
 use slam_core::{
     Angle, Decision, DriveCommand, FixOutcome, GridMap, GuardConfig, Localiser, MatchingConfig,
     Occupancy, PlausibleConfig, Pose, SensorFrame, Slam, SlamConfig, TagMap,
@@ -207,6 +208,58 @@ pub struct Figures {
     /// even `null`) when the run has no filter (every mode but `slam`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub estimator: Option<EstimatorFigures>,
+    /// What came of the run's first turn on the spot ([`Slam::close_first_turn`]);
+    /// absent when the core does not match (every mode but `slam`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub first_turn: Option<FirstTurnFigures>,
+}
+
+/// What came of the run's first turn on the spot: closed (the map drawn again at the
+/// closure's headings), closed but known (the filter already surer of the heading: nothing
+/// changed), refused by the closure, given up before it, or still kept when the route
+/// ended without a drive.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FirstTurnFigures {
+    /// `closed`, `known`, `refused`, `given up` or `kept`.
+    pub outcome: &'static str,
+    /// Why it was refused or given up; absent when closed or kept.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub why: Option<String>,
+    /// The closure's excess, degrees: how far the gyro's integral ran past the true turn;
+    /// absent unless closed or known.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub excess_deg: Option<f64>,
+    /// The excess's standard deviation, degrees.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sd_deg: Option<f64>,
+}
+
+impl FirstTurnFigures {
+    /// The figures of `turn` at the run's end; `None` when the core does not match.
+    fn of(turn: &FirstTurn) -> Option<FirstTurnFigures> {
+        let figures = |outcome, why: Option<String>| FirstTurnFigures {
+            outcome,
+            why,
+            excess_deg: None,
+            sd_deg: None,
+        };
+        Some(match turn.outcome() {
+            None => figures("kept", None),
+            Some(Outcome::Closed(c)) => FirstTurnFigures {
+                excess_deg: Some(f64::from(c.excess_mdeg) / 1000.0),
+                sd_deg: Some(f64::from(c.sd_mdeg) / 1000.0),
+                ..figures("closed", None)
+            },
+            Some(Outcome::Known(c)) => FirstTurnFigures {
+                excess_deg: Some(f64::from(c.excess_mdeg) / 1000.0),
+                sd_deg: Some(f64::from(c.sd_mdeg) / 1000.0),
+                ..figures("known", None)
+            },
+            Some(Outcome::Refused(why)) => figures("refused", Some(format!("{why:?}"))),
+            Some(Outcome::GivenUp(GiveUp::NotMatching)) => return None,
+            Some(Outcome::GivenUp(why)) => figures("given up", Some(format!("{why:?}"))),
+        })
+    }
 }
 
 /// Why a run could not start.
@@ -503,6 +556,8 @@ fn run_sized<const W: usize, const H: usize>(
     // ([`Slam::measure_walls`]).
     let mut walls = slam_core::wall_rate::WallRate::default();
     let mut turn = slam_core::wall_turn::WallTurn::default();
+    // The first turn on the spot, kept until it closes ([`Slam::close_first_turn`]).
+    let mut first_turn = Box::new(FirstTurn::new());
     while let Some(command) = route.command() {
         if robot.time_s() > MAX_RUN_S {
             route_cut_at_s = Some(robot.time_s());
@@ -530,6 +585,7 @@ fn run_sized<const W: usize, const H: usize>(
         depth_steps.judge(&mut frame);
         let report = slam.step(&frame);
         let report = slam.measure_walls(&mut walls, &mut turn, &frame, report);
+        let report = slam.close_first_turn(&mut first_turn, &frame, report);
         if slam.depth_steps_void() {
             depth_steps.forget_steps();
         }
@@ -620,6 +676,7 @@ fn run_sized<const W: usize, const H: usize>(
         held_ticks,
         route_cut_at_s,
         estimator: estimator_figures(&ticks, Some(true_calibration)),
+        first_turn: FirstTurnFigures::of(&first_turn),
     };
     let record = RunRecord {
         scenario: scenario.name.clone(),
