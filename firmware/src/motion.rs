@@ -189,8 +189,19 @@ pub async fn motion_task(
     // Then one SLAM tick with the gyro live: the tick in which calibration ended saw
     // samples for only part of its interval, and the core takes their mean rate over the
     // whole of it. Moving then would count the turn's start twice (up to a tick's worth of
-    // the turn); standing still one more tick costs 0.1 s.
-    while reports.changed().await.step.stale.gyro {}
+    // the turn); standing still one more tick costs 0.1 s. And with the depth sensor
+    // ranging (its firmware takes a second or two to load): a first turn on the spot seen
+    // whole closes ([`slam_core::slam::first_turn`]), one begun blind does not.
+    let mut waited_for_depth = false;
+    loop {
+        let stale = reports.changed().await.step.stale;
+        if !stale.gyro && !stale.depth {
+            break;
+        }
+        if stale.depth && !core::mem::replace(&mut waited_for_depth, true) {
+            defmt::info!("motion: waiting for the depth sensor to range");
+        }
+    }
 
     let mut pilot = Pilot {
         motors: &mut motors,

@@ -25,6 +25,10 @@ use embassy_sync::watch::{Receiver, Watch};
 use embassy_time::{Duration, Instant, Ticker};
 use portable_atomic::Ordering;
 #[cfg(feature = "matching")]
+use static_cell::ConstStaticCell;
+#[cfg(feature = "matching")]
+use slam_core::slam::first_turn::FirstTurn;
+#[cfg(feature = "matching")]
 use slam_core::wall_rate::WallRate;
 #[cfg(feature = "matching")]
 use slam_core::wall_turn::WallTurn;
@@ -96,6 +100,13 @@ pub const TELEMETRY_SCHEDULE: Schedule = Schedule {
     map_chunks_per_tick: 2,
     inputs: cfg!(feature = "record-inputs"),
 };
+
+/// Readings of the first turn's closure searched before the loop yields to the other
+/// tasks (`slam_core::slam::first_turn::FirstTurn::search`): each laid over the turn's
+/// start at every slide, as short a piece as a match's, inside the flow task's read
+/// timeout.
+#[cfg(feature = "matching")]
+const FIRST_TURN_PIECES_PER_TURN: usize = 2;
 
 /// Pieces of a scan match searched before the loop yields to the other tasks
 /// ([`slam_core::matcher::Matcher::search`]): one is a fraction of a millisecond on the
@@ -254,6 +265,19 @@ pub async fn slam_task(
         Some(_) => 0,
     };
     let mut trust = slam_core::Trust::default();
+    let mut gyro_heard = false;
+    // The run's first turn, kept until it closes (`Slam::close_first_turn`): beside the
+    // core as the walls are, and taken in place, never built on the stack. A resumed run
+    // keeps none: its map was laid before the reset.
+    #[cfg(feature = "matching")]
+    let first_turn = {
+        static FIRST_TURN: ConstStaticCell<FirstTurn> = ConstStaticCell::new(FirstTurn::new());
+        let first_turn = FIRST_TURN.take();
+        if start.fresh.is_none() {
+            first_turn.resume();
+        }
+        first_turn
+    };
     // The step leaves its scan match to this loop, which searches it a few headings at a
     // time and lets the sensors' tasks run in between.
     #[cfg(feature = "matching")]
@@ -283,6 +307,14 @@ pub async fn slam_task(
         frame.flow = inputs.flow.take();
         let gyro = inputs.gyro.take();
         frame.gyro = gyro.map(|g| g.rate);
+        // Until the gyro is first heard (its calibration at boot, for which the motion
+        // task holds the robot still) no time passes for the core: a heading it could not
+        // follow would otherwise widen by a turn it did not make, as host-sim's first
+        // frame has no time either. A resumed run's first frame keeps its blind span.
+        gyro_heard |= frame.gyro.is_some();
+        if !gyro_heard && unseen_us == 0 {
+            frame.dt_us = 0;
+        }
         // The moment the frame's odometry reaches: the core carries a picture or a scan
         // from its own moment to the frame's pose by the odometry, so their ages count
         // back from the newest gyro sample, which sets the heading, not from the wake-up.
@@ -332,6 +364,17 @@ pub async fn slam_task(
                 .slam()
                 .measure_walls(&mut walls, &mut turn, &frame, report);
             WALLS.lock(|w| w.set((walls, turn)));
+            // The first turn on the spot, drawn again once it closes, off the step too: its
+            // closure searched a few scans at a time, as the match.
+            let keeping = first_turn.keeping();
+            let report = saved.slam().close_first_turn(first_turn, &frame, report);
+            while !first_turn.search(FIRST_TURN_PIECES_PER_TURN) {
+                embassy_futures::yield_now().await;
+            }
+            let report = saved.slam().finish_first_turn(first_turn, report);
+            if let (true, Some(outcome)) = (keeping, first_turn.outcome()) {
+                defmt::info!("slam: first turn {}", outcome);
+            }
             report
         };
         let matched = Instant::now();
