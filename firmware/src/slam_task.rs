@@ -365,7 +365,7 @@ pub async fn slam_task(
                 .measure_walls(&mut walls, &mut turn, &frame, report);
             WALLS.lock(|w| w.set((walls, turn)));
             // The first turn on the spot, drawn again once it closes, off the step too: its
-            // closure searched a few scans at a time, as the match.
+            // closure searched a few readings at a time, as the match is.
             let keeping = first_turn.keeping();
             let report = saved.slam().close_first_turn(first_turn, &frame, report);
             while !first_turn.search(FIRST_TURN_PIECES_PER_TURN) {
