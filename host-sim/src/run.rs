@@ -245,15 +245,16 @@ impl FirstTurnFigures {
         };
         Some(match turn.outcome() {
             None => figures("kept", None),
-            Some(Outcome::Closed(c)) => FirstTurnFigures {
+            Some(o @ (Outcome::Closed(c) | Outcome::Known(c))) => FirstTurnFigures {
                 excess_deg: Some(f64::from(c.excess_mdeg) / 1000.0),
                 sd_deg: Some(f64::from(c.sd_mdeg) / 1000.0),
-                ..figures("closed", None)
-            },
-            Some(Outcome::Known(c)) => FirstTurnFigures {
-                excess_deg: Some(f64::from(c.excess_mdeg) / 1000.0),
-                sd_deg: Some(f64::from(c.sd_mdeg) / 1000.0),
-                ..figures("known", None)
+                ..figures(
+                    match o {
+                        Outcome::Closed(_) => "closed",
+                        _ => "known",
+                    },
+                    None,
+                )
             },
             Some(Outcome::Refused(why)) => figures("refused", Some(format!("{why:?}"))),
             Some(Outcome::GivenUp(GiveUp::NotMatching)) => return None,

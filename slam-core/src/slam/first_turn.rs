@@ -306,7 +306,6 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         if self.defer_matching {
             return report;
         }
-        turn.search(usize::MAX);
         self.finish_first_turn(turn, report)
     }
 
