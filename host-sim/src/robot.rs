@@ -33,7 +33,7 @@ pub struct TruePose {
 }
 
 /// Physics sub-step: the gyro's 200 Hz sample period, in seconds.
-const SUBSTEP_S: f64 = 0.005;
+pub const SUBSTEP_S: f64 = 0.005;
 /// The sub-step in microseconds, for whole-number arithmetic on latencies.
 const SUBSTEP_US: u64 = 5_000;
 /// The flow sensor is read every other sub-step (100 Hz).
@@ -200,6 +200,15 @@ impl Robot {
     /// the flow sensor at 100 Hz on the way.
     pub fn advance(&mut self, dt_s: f64, command: Command) {
         self.advance_to(self.time_s + dt_s, command);
+    }
+
+    /// Moves the robot under `command` to the sub-step nearest simulated time `t_s`, so
+    /// that what is read next is the world within half a sub-step of `t_s`, never always
+    /// behind it: the emulated firmware reads its gyro at its own phase to the sub-steps,
+    /// and each sample taken up to the earlier sub-step was the world of up to a whole
+    /// sub-step before, a lag its integral then carried through every turn.
+    pub fn advance_to_nearest(&mut self, t_s: f64, command: Command) {
+        self.advance_to(t_s + SUBSTEP_S / 2.0, command);
     }
 
     /// Moves the robot under `command` until simulated time `t_s`, in whole 5 ms sub-steps

@@ -7,11 +7,11 @@
 //!
 //! | request | reply |
 //! |---|---|
-//! | `{"cmd":"advance","t_s":T,"left":L,"right":R}` | `{"t_s","x_mm","y_mm","heading_deg","collisions"}`: the world moved on to time `T` s with wheel duties `L`, `R` in [-1, 1] (positive forward); `collisions` counts the body's contacts with a wall so far |
+//! | `{"cmd":"advance","t_s":T,"left":L,"right":R}` | `{"t_s","x_mm","y_mm","heading_deg","collisions"}`: the world moved on to the 5 ms sub-step nearest time `T` s (the reply's `t_s`) with wheel duties `L`, `R` in [-1, 1] (positive forward); `collisions` counts the body's contacts with a wall so far |
 //! | `{"cmd":"flow"}` | `{"forward_counts","right_counts","squal"}`: counts since the last flow read |
 //! | `{"cmd":"gyro"}` | `{"rate_mdps"}`: the newest 200 Hz yaw rate sample, bias and noise included |
 //! | `{"cmd":"depth"}` | `{"ranges_mm":[8 x (mm or null)]}`: the 8 beams, left to right |
-//! | `{"cmd":"tags"}` | `{"tags":[{"id","cx_px","distance_mm"}]}`: what the camera reads now, from where the robot was `sensors.camera.latency_ms` ago (the firmware only knows when the frame arrived) |
+//! | `{"cmd":"tags"}` | `{"tags":[{"id","cx_px","distance_mm"}]}`: what the camera reads now, from where the robot was `sensors.camera.latency_ms` ago (the link does not say: the firmware knows only when the frame was sent) |
 //! | `{"cmd":"truth"}` | as `advance`, without moving |
 //!
 //! A request that cannot be understood (not UTF-8, not JSON, an unknown command) or that
@@ -151,7 +151,7 @@ pub fn answer(robot: &mut Robot, scenario: &Scenario, line: &str) -> String {
             if let Err(problem) = check_advance(robot.time_s(), t_s, left, right) {
                 return serde_json::json!({ "error": problem }).to_string();
             }
-            robot.advance_to(t_s, command_from_duty(scenario, left, right));
+            robot.advance_to_nearest(t_s, command_from_duty(scenario, left, right));
             truth(robot)
         }
         Request::Truth => truth(robot),
@@ -186,9 +186,9 @@ pub fn answer(robot: &mut Robot, scenario: &Scenario, line: &str) -> String {
 }
 
 /// How far before the world's time an `advance` may ask without being refused, seconds:
-/// the world can stand a few nanoseconds past a time it was asked for (it rounds a time
-/// within a millionth of a 5 ms sub-step up to that sub-step).
-const BACKWARDS_TOLERANCE_S: f64 = 1e-6;
+/// the world moves to the sub-step nearest the time asked for, up to half a sub-step past
+/// it ([`Robot::advance_to_nearest`]), and a millionth of one for rounding.
+const BACKWARDS_TOLERANCE_S: f64 = crate::robot::SUBSTEP_S / 2.0 + 1e-6;
 
 /// Why an `advance` from the world's time `now_s` cannot be done, if it cannot.
 fn check_advance(now_s: f64, t_s: f64, left: f64, right: f64) -> Result<(), String> {
@@ -372,6 +372,27 @@ mod tests {
         // The same time again is no step at all, and fine.
         assert_eq!(lines[5]["t_s"].as_f64(), Some(2.0), "{}", lines[5]);
         assert_eq!(lines[6]["t_s"].as_f64(), Some(2.0), "{}", lines[6]);
+    }
+
+    /// A time between two 5 ms sub-steps is served from the nearer, so a sensor read there
+    /// sees the world within 2.5 ms of when it asked, not up to 5 ms before; a time up to
+    /// half a sub-step before the world's, as the nearer-rounding leaves it, is no error.
+    #[test]
+    fn a_time_between_sub_steps_is_served_from_the_nearer() {
+        let lines = session(
+            concat!(
+                "{\"cmd\":\"advance\",\"t_s\":1.0124,\"left\":0,\"right\":0}\n",
+                "{\"cmd\":\"advance\",\"t_s\":1.0126,\"left\":0,\"right\":0}\n",
+                "{\"cmd\":\"advance\",\"t_s\":1.0128,\"left\":0,\"right\":0}\n",
+                "{\"cmd\":\"advance\",\"t_s\":1.0174,\"left\":0,\"right\":0}\n",
+            )
+            .as_bytes(),
+        );
+        let t = |i: usize| lines[i]["t_s"].as_f64().unwrap_or(f64::NAN);
+        assert!((t(0) - 1.010).abs() < 1e-9, "{}", lines[0]);
+        assert!((t(1) - 1.015).abs() < 1e-9, "{}", lines[1]);
+        assert!((t(2) - 1.015).abs() < 1e-9, "{}", lines[2]);
+        assert!((t(3) - 1.015).abs() < 1e-9, "{}", lines[3]);
     }
 
     #[test]
