@@ -206,9 +206,10 @@ pub struct DepthReading {
 pub struct TagPicture {
     /// The tags read (empty: none in view).
     pub tags: TagDetections,
-    /// When the camera task took the picture's frame from the UART: up to a tick before
-    /// the SLAM tick that uses it, which sets the frame's `tags_age_us` from it.
-    pub received: Instant,
+    /// When the co-processor began sending the picture's frame: its arrival at the camera
+    /// task less its time on the line. Up to a tick before the SLAM tick that uses it,
+    /// which sets the frame's `tags_age_us` from it.
+    pub sent: Instant,
 }
 
 /// The camera's newest picture not yet used.

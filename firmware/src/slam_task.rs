@@ -331,9 +331,9 @@ pub async fn slam_task(
         }
         if let Some(picture) = inputs.tags.try_take() {
             frame.tags = picture.tags;
-            // How long before the odometry's moment the picture arrived; one that arrived
-            // after it counts as taken at it.
-            frame.tags_age_us = micros(odometry_at.saturating_duration_since(picture.received));
+            // How long before the odometry's moment the picture was sent; one sent after
+            // it counts as taken at it.
+            frame.tags_age_us = micros(odometry_at.saturating_duration_since(picture.sent));
         }
 
         let trusted_before = trust;

@@ -101,6 +101,25 @@ fn empty_and_full_frames_round_trip() {
     }
 }
 
+/// A frame's length on the line is what the encoder writes, for every count of tags and
+/// for fields with zero bytes (COBS stuffs them) and without.
+#[test]
+fn a_frames_wire_length_is_what_is_encoded() {
+    for fill in [0u16, 0x0101, u16::MAX] {
+        let mut repr = FrameRepr::new(fill);
+        for i in 0..=8u16 {
+            let mut out = [0u8; MAX_ENCODED_LEN + 1];
+            let n = encode_frame(&repr, &mut out).unwrap();
+            assert_eq!(repr.wire_len(), n, "{i} tags, fields {fill:#06x}");
+            if i < 8 {
+                let (cx, cy) = (fill.min(32_000), fill.min(24_000));
+                repr.push(TagDetection::new(fill, cx, cy, fill).unwrap())
+                    .unwrap();
+            }
+        }
+    }
+}
+
 #[test]
 fn encode_into_short_buffer_is_error() {
     let mut out = [0u8; 10];

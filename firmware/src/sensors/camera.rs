@@ -1,6 +1,6 @@
 //! Camera co-processor task (UART0, 115200 baud 8N1, RX on GP1): decodes its tag-detection
 //! frames and publishes each picture's tags into [`TagInbox`], the latest picture winning,
-//! with the instant its frame arrived.
+//! with the instant its frame began to be sent.
 //!
 //! The UART is *buffered* (interrupt driven into a ring buffer), not DMA: bytes that arrive
 //! while the task is busy are kept, and it is an RX mode the emulator harness
@@ -12,7 +12,7 @@
 //! too (the tags left the view), and the SLAM tick treats an empty list as "no fix".
 
 use embassy_rp::uart::{self, BufferedUart};
-use embassy_time::Instant;
+use embassy_time::{Duration, Instant};
 use embedded_io_async::Read;
 use slam_core::{TagDetection, TagDetections};
 use static_cell::ConstStaticCell;
@@ -69,7 +69,7 @@ pub async fn camera_task(pins: CameraLinkPins, irqs: Irqs, tags: &'static TagInb
             HEALTH.camera_frames.bump();
             tags.signal(TagPicture {
                 tags: to_core(&frame),
-                received,
+                sent: sent_at(received, &frame),
             });
         }
         // The decoder counts rejects by kind; the health struct wants the total.
@@ -79,6 +79,22 @@ pub async fn camera_task(pins: CameraLinkPins, irqs: Irqs, tags: &'static TagInb
             .add(rejected.wrapping_sub(rejected_seen));
         rejected_seen = rejected;
     }
+}
+
+/// A character's time on the line, nanoseconds: 8N1 is ten bits.
+const CHARACTER_NS: u32 = (10_000_000_000 / CAMERA_BAUD as u64) as u32;
+
+/// When the co-processor began sending `frame`, whose last byte had arrived by
+/// `received`: its bytes took a character time each. The co-processor sends a picture's
+/// frame once it has found the tags, so this is the picture's moment less that work, which
+/// the link does not report. The arrival is a frame's time on the line later, and in a
+/// turn that is more heading than a filter the tags have made sure of allows.
+fn sent_at(received: Instant, frame: &FrameRepr) -> Instant {
+    let characters = u32::try_from(frame.wire_len()).unwrap_or(u32::MAX);
+    let on_line_us = characters.saturating_mul(CHARACTER_NS) / 1_000;
+    received
+        .checked_sub(Duration::from_micros(u64::from(on_line_us)))
+        .unwrap_or(received)
 }
 
 /// The core's view of one picture: id, centre column in centipixels, distance in

@@ -3,7 +3,7 @@
 use super::{
     Packet, WireError, MAX_CX_CENTIPX, MAX_CY_CENTIPX, MAX_DETECTIONS, MAX_FRAME_LEN, VERSION,
 };
-use crate::framing::cobs_encode;
+use crate::framing::{cobs_encode, cobs_max_len};
 
 /// One AprilTag seen by the camera.
 ///
@@ -126,6 +126,15 @@ impl FrameRepr {
     /// Decoded length of this frame, CRC included.
     pub fn buffer_len(&self) -> usize {
         Packet::<&[u8]>::buffer_len(usize::from(self.count))
+    }
+
+    /// Bytes this frame takes on the line: its COBS bytes and the delimiter, as
+    /// [`encode_frame`] writes them. A receiver that knows when the last arrived knows
+    /// from this when the first was sent.
+    pub fn wire_len(&self) -> usize {
+        // Exact: COBS adds its one byte to any frame under 254 bytes, and a frame is at
+        // most `MAX_FRAME_LEN`.
+        cobs_max_len(self.buffer_len()) + 1
     }
 
     /// Write this frame into a packet of exactly [`FrameRepr::buffer_len`]
