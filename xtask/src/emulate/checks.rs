@@ -283,12 +283,11 @@ fn agrees(emulated: f64, simulated: f64, tolerance: Tolerance) -> bool {
 /// on at least [`EMULATED_INSIDE_PCT`] of the emulated run's ticks and on the issue's 90 %
 /// of host-sim's, and the tag sightings used within ±25 % of the simulator's.
 /// The least share of the emulated run's ticks whose true error lies inside the filter's
-/// 3-sigma bound. The issue's 90 % a seed is held on host-sim's twenty seeds
-/// (`host-sim/tests/filter_targets.rs`); this is one more run, on a route the firmware
-/// steers itself, and an exact filter's share on one run falls under 90 % when a dark turn
-/// on the spot lets the flow noise walk three of its sigmas (the README gives the figures).
-/// 85 % allows one such walk on the route, not a bound that is routinely too tight.
-pub const EMULATED_INSIDE_PCT: f64 = 85.0;
+/// 3-sigma bound: the issue's 90 % a seed, as host-sim's twenty seeds are held to it
+/// (`host-sim/tests/filter_targets.rs`), on one more run, on a route the firmware steers
+/// itself. A reading taken to be a few milliseconds off its moment shows here first: in a
+/// turn, with the tags in view, the heading's bound is a millisecond of the turn.
+pub const EMULATED_INSIDE_PCT: f64 = 90.0;
 
 /// The true error (`what`: "error", or "heading") inside the filter's 3-sigma bound, the
 /// share of ticks under `key` in each run's `estimator` figures (`ve` emulated, `se`
@@ -832,6 +831,7 @@ INFO motion: route done, motors coasting\n";
             |e: &serde_json::Value, s: &serde_json::Value| inside_check(e, s, "heading", key).1;
         assert!(holds(&share(98.5), &share(100.0)));
         assert!(!holds(&share(80.7), &share(100.0)));
+        assert!(!holds(&share(89.4), &share(100.0)));
         assert!(!holds(&share(98.5), &share(89.9)));
         assert!(!holds(&serde_json::json!({}), &share(100.0)));
     }
