@@ -203,10 +203,9 @@ impl Robot {
     }
 
     /// Moves the robot under `command` to the sub-step nearest simulated time `t_s`, so
-    /// that what is read next is the world within half a sub-step of `t_s`, never always
-    /// behind it: the emulated firmware reads its gyro at its own phase to the sub-steps,
-    /// and each sample taken up to the earlier sub-step was the world of up to a whole
-    /// sub-step before, a lag its integral then carried through every turn.
+    /// that what is read next is the world within half a sub-step of `t_s`, either way: a
+    /// reader at its own phase to the sub-steps (the emulated firmware's 200 Hz gyro) then
+    /// sees the world of its own moment, not one that is always behind it.
     pub fn advance_to_nearest(&mut self, t_s: f64, command: Command) {
         self.advance_to(t_s + SUBSTEP_S / 2.0, command);
     }

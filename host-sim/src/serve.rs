@@ -18,7 +18,7 @@
 //! asks for the impossible (time going backwards or below 0, a step longer than
 //! [`MAX_ADVANCE_S`]) gets `{"error": "..."}`, and the session goes on.
 
-use crate::robot::{Command, Robot};
+use crate::robot::{Command, Robot, SUBSTEP_S};
 use crate::scenario::Scenario;
 use serde::{Deserialize, Serialize};
 use std::io::{BufRead, Write};
@@ -188,7 +188,7 @@ pub fn answer(robot: &mut Robot, scenario: &Scenario, line: &str) -> String {
 /// How far before the world's time an `advance` may ask without being refused, seconds:
 /// the world moves to the sub-step nearest the time asked for, up to half a sub-step past
 /// it ([`Robot::advance_to_nearest`]), and a millionth of one for rounding.
-const BACKWARDS_TOLERANCE_S: f64 = crate::robot::SUBSTEP_S / 2.0 + 1e-6;
+const BACKWARDS_TOLERANCE_S: f64 = SUBSTEP_S / 2.0 + 1e-6;
 
 /// Why an `advance` from the world's time `now_s` cannot be done, if it cannot.
 fn check_advance(now_s: f64, t_s: f64, left: f64, right: f64) -> Result<(), String> {
