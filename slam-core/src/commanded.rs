@@ -341,6 +341,14 @@ impl RecentCommands {
         self.reach.map(|(r, _)| r.high.max(-r.low).unsigned_abs())
     }
 
+    /// The fastest the robot can have turned under the last commands, either way, within
+    /// the tolerance they were pushed with, millidegrees per second; `None` unless all
+    /// are known.
+    pub fn turn_bound_mdps(&self) -> Option<u32> {
+        self.reach
+            .map(|(_, l)| l.rate_high.unsigned_abs().max(l.rate_low.unsigned_abs()))
+    }
+
     /// Whether any of the last commands turned the robot; `None` unless all are known.
     pub fn turning(&self) -> Option<bool> {
         self.reach.map(|(r, _)| r.low != 0 || r.high != 0)

@@ -626,6 +626,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             dt_us,
             flow.kind(),
             gyro.kind(),
+            self.plausibility.recent_commands().turn_bound_mdps(),
         );
     }
 

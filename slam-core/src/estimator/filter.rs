@@ -197,7 +197,12 @@ impl Estimator {
     /// poses either side of `motion`, which took `dt_us`; `flow` and `gyro` say whether
     /// each reading was integrated, the robot held still that way (no reading, but the
     /// motion known: no more noise than a reading's), or nothing was known.
+    /// `turn_bound_mdps` is the fastest the commands let the robot turn this tick (`None`:
+    /// not known): a tick with no gyro turned no further than that, so its heading noise is
+    /// at most that tick's turn, where the configured stale noise must cover a turn at full
+    /// rate (a straight drive's lost reading is a fifth of a degree, not three).
     #[inline(never)]
+    #[allow(clippy::too_many_arguments)]
     pub fn predict(
         &mut self,
         before: &Pose,
@@ -206,6 +211,7 @@ impl Estimator {
         dt_us: u32,
         flow: Known<()>,
         gyro: Known<()>,
+        turn_bound_mdps: Option<u32>,
     ) {
         let read = |k: Known<()>| matches!(k, Known::Read(()));
         let (flow_read, gyro_read) = (read(flow), read(gyro));
@@ -236,7 +242,7 @@ impl Estimator {
             push((State::Heading, State::GyroBias, q16(-dt)));
         }
         // The noise in 1/256 units, its fraction carried to the next tick.
-        let mut q = self.process_noise_q8(dx, dy, turn, dt_us, flow, gyro);
+        let mut q = self.process_noise_q8(dx, dy, turn, dt_us, flow, gyro, turn_bound_mdps);
         for (q, carry) in q.iter_mut().zip(self.noise_carry.iter_mut()) {
             let total = q.saturating_add(i64::from(*carry));
             *carry = (total & 0xFF) as u8;
@@ -248,6 +254,7 @@ impl Estimator {
 
     /// The noise one tick adds, in covariance units times 2^8 (see [`NoiseParts`]): the
     /// parts that do not move with the tick's motion worked out once, at construction.
+    #[allow(clippy::too_many_arguments)]
     fn process_noise_q8(
         &self,
         dx: i64,
@@ -256,6 +263,7 @@ impl Estimator {
         dt_us: u32,
         flow: bool,
         gyro: bool,
+        turn_bound_mdps: Option<u32>,
     ) -> [i64; N] {
         let n = &self.noise;
         let turn = turn.abs();
@@ -280,7 +288,17 @@ impl Estimator {
             };
             n.heading + by_turn
         } else {
-            stale_var(n.stale_heading_q8, dt_us)
+            let stale = stale_var(n.stale_heading_q8, dt_us);
+            match turn_bound_mdps {
+                Some(mdps) => {
+                    // The turn over the tick, mdeg: mdps times microseconds times 2^32 / 1e6
+                    // (4,295), shifted back; a turn under 2^17 mdps over a minute, below 2^63.
+                    let us = u64::from(dt_us.min(60_000_000));
+                    let mdeg = (u64::from(mdps.min(1 << 17)) * us * 4_295) >> 32;
+                    stale.min(noise_var(units::heading_from_mdeg_frac(mdeg as i64, 8)))
+                }
+                None => stale,
+            }
         };
         let [gyro_scale, gyro_bias, flow_scale] = n.walks;
         [
@@ -558,6 +576,35 @@ fn ppm_q16(ppm: u32) -> i64 {
 mod tests {
     use super::*;
 
+    /// A tick without the gyro adds the configured stale heading noise (3 degrees), unless
+    /// the commands bound the tick's turn lower: then no more than that turn.
+    #[test]
+    fn a_lost_gyros_heading_noise_is_at_most_the_turn_the_commands_allow() {
+        let added = |bound: Option<u32>| {
+            let mut e = Estimator::new(EstimatorConfig::SEED);
+            let h0 = e.p.get(State::Heading, State::Heading);
+            let still = Pose::default();
+            e.predict(
+                &still,
+                &still,
+                &Motion::default(),
+                config::STALE_PERIOD_US,
+                Known::Read(()),
+                Known::Lost,
+                bound,
+            );
+            e.p.get(State::Heading, State::Heading) - h0
+        };
+        let heading = |mdeg: i64| square(units::heading_from_mdeg(mdeg));
+        let stale = heading(i64::from(EstimatorConfig::SEED.stale_gyro_mdeg));
+        let near = |v: i64, want: i64| (v - want).abs() <= want / 50 + 2;
+        assert!(near(added(None), stale), "{} against {stale}", added(None));
+        // Driving straight at 86 mm/s: 4,456 mdps allowed, 446 mdeg over the tick.
+        assert!(near(added(Some(4_456)), heading(446)));
+        // A turn at full rate allows more than the stale noise, which stands.
+        assert_eq!(added(Some(33_568)), added(None));
+    }
+
     /// The heading's and x's variances after one still frame of `dt_us` with neither input.
     fn after_unseen(dt_us: u32) -> (i64, i64) {
         let mut e = Estimator::new(EstimatorConfig::SEED);
@@ -573,6 +620,7 @@ mod tests {
             dt_us,
             Known::Lost,
             Known::Lost,
+            None,
         );
         (
             e.p.get(State::Heading, State::Heading) - h0,
@@ -641,6 +689,7 @@ mod tests {
             100_000,
             Known::Read(()),
             Known::Read(()),
+            None,
         );
         assert_ne!(e.p.get(State::X, State::Heading), 0);
         let heading = e.p.get(State::Heading, State::Heading);
