@@ -281,9 +281,10 @@ fn one_case_meets_the_targets(world: &str, pose: PoseMode, start_s: f64, case: &
 /// configured stale noise, a turn at full rate's (3 degrees a tick), though the robot was
 /// commanded straight, and a match against the left wall then took the heading 3.2
 /// degrees off, claiming 0.8: 18 cells out of place on seed 20 from 55 s, one from 70 s. A
-/// lost reading's heading noise is now at most the tick's turn the commands allow
-/// (`slam_core::commanded::RecentCommands::turn_bound_mdps`: half a degree driving
-/// straight). No cell added from either moment, and from 70 s every target met.
+/// guessed tick's heading noise is now at most how far the commands let its guess be from
+/// the truth (`slam_core::commanded::RecentCommands::turn_guess_bound_mdps`: under half a
+/// degree for a lost reading on a straight drive). No cell added from either moment, and
+/// from 70 s every target met.
 #[test]
 fn a_gyro_lost_on_a_straight_drive_leaves_the_heading_to_the_commands() {
     one_case_meets_the_targets(

@@ -341,12 +341,17 @@ impl RecentCommands {
         self.reach.map(|(r, _)| r.high.max(-r.low).unsigned_abs())
     }
 
-    /// The fastest the robot can have turned under the last commands, either way, within
-    /// the tolerance they were pushed with, millidegrees per second; `None` unless all
-    /// are known.
-    pub fn turn_bound_mdps(&self) -> Option<u32> {
-        self.reach
-            .map(|(_, l)| l.rate_high.unsigned_abs().max(l.rate_low.unsigned_abs()))
+    /// How far a guess of the robot's turn rate, `guess_mdps`, can be from its true rate
+    /// under the last commands (which lies between the slowest and the fastest they allow,
+    /// within the tolerance they were pushed with), millidegrees per second; `None` unless
+    /// all are known.
+    pub fn turn_guess_bound_mdps(&self, guess_mdps: i32) -> Option<u32> {
+        self.reach.map(|(_, l)| {
+            let g = i64::from(guess_mdps);
+            let below = (g - i64::from(l.rate_low)).unsigned_abs();
+            let above = (i64::from(l.rate_high) - g).unsigned_abs();
+            below.max(above).min(u64::from(u32::MAX)) as u32
+        })
     }
 
     /// Whether any of the last commands turned the robot; `None` unless all are known.

@@ -626,7 +626,11 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             dt_us,
             flow.kind(),
             gyro.kind(),
-            self.plausibility.recent_commands().turn_bound_mdps(),
+            // A tick without a reading integrated its guess (none: no turn); the truth
+            // lies within what the commands allow.
+            self.plausibility
+                .recent_commands()
+                .turn_guess_bound_mdps(rate.map_or(0, |r| r.rate_mdps)),
         );
     }
 

@@ -197,10 +197,11 @@ impl Estimator {
     /// poses either side of `motion`, which took `dt_us`; `flow` and `gyro` say whether
     /// each reading was integrated, the robot held still that way (no reading, but the
     /// motion known: no more noise than a reading's), or nothing was known.
-    /// `turn_bound_mdps` is the fastest the commands let the robot turn this tick (`None`:
-    /// not known): a tick with no gyro turned no further than that, so its heading noise is
-    /// at most that tick's turn, where the configured stale noise must cover a turn at full
-    /// rate (a straight drive's lost reading is a fifth of a degree, not three).
+    /// `guess_bound_mdps` is how far the turn rate integrated can be from the robot's under
+    /// its commands (`None`: not known): a tick whose gyro was not read (lost, or a reading
+    /// standing in) turned within that of its guess, so its heading noise is at most that
+    /// over the tick, where the configured stale noise must cover a turn at full rate (a
+    /// reading lost on a straight drive under half a degree, not three).
     #[inline(never)]
     #[allow(clippy::too_many_arguments)]
     pub fn predict(
@@ -211,7 +212,7 @@ impl Estimator {
         dt_us: u32,
         flow: Known<()>,
         gyro: Known<()>,
-        turn_bound_mdps: Option<u32>,
+        guess_bound_mdps: Option<u32>,
     ) {
         let read = |k: Known<()>| matches!(k, Known::Read(()));
         let (flow_read, gyro_read) = (read(flow), read(gyro));
@@ -242,7 +243,7 @@ impl Estimator {
             push((State::Heading, State::GyroBias, q16(-dt)));
         }
         // The noise in 1/256 units, its fraction carried to the next tick.
-        let mut q = self.process_noise_q8(dx, dy, turn, dt_us, flow, gyro, turn_bound_mdps);
+        let mut q = self.process_noise_q8(dx, dy, turn, dt_us, flow, gyro, guess_bound_mdps);
         for (q, carry) in q.iter_mut().zip(self.noise_carry.iter_mut()) {
             let total = q.saturating_add(i64::from(*carry));
             *carry = (total & 0xFF) as u8;
@@ -263,7 +264,7 @@ impl Estimator {
         dt_us: u32,
         flow: bool,
         gyro: bool,
-        turn_bound_mdps: Option<u32>,
+        guess_bound_mdps: Option<u32>,
     ) -> [i64; N] {
         let n = &self.noise;
         let turn = turn.abs();
@@ -289,7 +290,7 @@ impl Estimator {
             n.heading + by_turn
         } else {
             let stale = stale_var(n.stale_heading_q8, dt_us);
-            match turn_bound_mdps {
+            match guess_bound_mdps {
                 Some(mdps) => {
                     // The turn over the tick, mdeg: mdps times microseconds times 2^32 / 1e6
                     // (4,295), shifted back; a turn under 2^17 mdps over a minute, below 2^63.
