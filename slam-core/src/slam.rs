@@ -619,6 +619,15 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         let before = self.pose;
         self.pose = odometry::apply(&before, &motion);
         self.history.push(self.pose, dt_us);
+        // A tick without a reading integrated its guess (none: no turn); the truth lies
+        // within what the commands allow. A tick read or held still needs no bound.
+        let guess_bound = if gyro.is_known() {
+            None
+        } else {
+            self.plausibility
+                .recent_commands()
+                .turn_guess_bound_mdps(rate.map_or(0, |r| r.rate_mdps))
+        };
         self.estimator.predict(
             &before,
             &self.pose,
@@ -626,11 +635,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             dt_us,
             flow.kind(),
             gyro.kind(),
-            // A tick without a reading integrated its guess (none: no turn); the truth
-            // lies within what the commands allow.
-            self.plausibility
-                .recent_commands()
-                .turn_guess_bound_mdps(rate.map_or(0, |r| r.rate_mdps)),
+            guess_bound,
         );
     }
 
