@@ -254,34 +254,6 @@ fn agrees(emulated: f64, simulated: f64, tolerance: Tolerance) -> bool {
     (emulated - simulated).abs() <= allowed
 }
 
-/// The whole seed route on the emulated RP2040, as `cargo xtask test` checks it: the
-/// firmware's run is scored by `host-sim view --truth --scenario` with the code that scores
-/// `host-sim run`, and held to the seed's bounds and to `host-sim run
-/// host-sim/scenarios/seed-mat.toml` on the same seed with the pose mode the firmware flies
-/// (its `Hello` says: `--pose slam` for the filter with matching, the default, `--pose
-/// filter` without it, `--pose tags` for the two-tag fix).
-/// Prints each check; returns (passed, failed).
-///
-/// The two runs do not drive quite the same path: the simulator turns until the true
-/// heading has turned, the firmware until its gyro says so. Timing does not set them
-/// apart: the firmware waits one tick with the gyro live before it moves, carries a tag
-/// fix from an old picture forward by the motion since (camera latency), and maps each
-/// depth scan at the pose of its moment. Hence the bounds:
-/// - 514 to 520 ticks: 52 s at 10 Hz is 520 steps at most (the first at 0.1 s); losing
-///   more than 1 % is not keeping 10 Hz.
-/// - error after the first fix and final error <= 2 cm: the seed's bound, for both runs.
-/// - first fix within ±1.5 s: it waits for both tags to be in view, which moves with the
-///   heading the first turn ends on; times are counted from the route's start (the
-///   emulator's `route_start_s`, when its truth first moves), not from reset.
-/// - fixes within ±25 %: the same view geometry over the whole route decides the count;
-///   the emulator's camera latency costs it some ticks with both tags in one picture.
-/// - known share within ±10 points: paths a few centimetres apart see the same walls.
-///
-/// With the filter, whose first tag update comes before the route starts (the firmware
-/// stands still calibrating its gyro with tag 11 in view), the first fix's time is not
-/// compared; instead the filter's own figures are: the true error inside its 3-sigma bound
-/// on at least [`EMULATED_INSIDE_PCT`] of the emulated run's ticks and on the 90 %
-/// of host-sim's, and the tag sightings used within ±25 % of the simulator's.
 /// The least share of the emulated run's ticks whose true error lies inside the filter's
 /// 3-sigma bound: the 90 % a seed, as host-sim's twenty seeds are held to it
 /// (`host-sim/tests/filter_targets.rs`), on one more run, on a route the firmware steers
@@ -334,6 +306,34 @@ pub fn flown(f: &serde_json::Value) -> Result<(&str, bool), String> {
     }
 }
 
+/// The whole seed route on the emulated RP2040, as `cargo xtask test` checks it: the
+/// firmware's run is scored by `host-sim view --truth --scenario` with the code that scores
+/// `host-sim run`, and held to the seed's bounds and to `host-sim run
+/// host-sim/scenarios/seed-mat.toml` on the same seed with the pose mode the firmware flies
+/// (its `Hello` says: `--pose slam` for the filter with matching, the default, `--pose
+/// filter` without it, `--pose tags` for the two-tag fix).
+/// Prints each check; returns (passed, failed).
+///
+/// The two runs do not drive quite the same path: the simulator turns until the true
+/// heading has turned, the firmware until its gyro says so. Timing does not set them
+/// apart: the firmware waits one tick with the gyro live before it moves, carries a tag
+/// fix from an old picture forward by the motion since (camera latency), and maps each
+/// depth scan at the pose of its moment. Hence the bounds:
+/// - 514 to 520 ticks: 52 s at 10 Hz is 520 steps at most (the first at 0.1 s); losing
+///   more than 1 % is not keeping 10 Hz.
+/// - error after the first fix and final error <= 2 cm: the seed's bound, for both runs.
+/// - first fix within ±1.5 s: it waits for both tags to be in view, which moves with the
+///   heading the first turn ends on; times are counted from the route's start (the
+///   emulator's `route_start_s`, when its truth first moves), not from reset.
+/// - fixes within ±25 %: the same view geometry over the whole route decides the count;
+///   the emulator's camera latency costs it some ticks with both tags in one picture.
+/// - known share within ±10 points: paths a few centimetres apart see the same walls.
+///
+/// With the filter, whose first tag update comes before the route starts (the firmware
+/// stands still calibrating its gyro with tag 11 in view), the first fix's time is not
+/// compared; instead the filter's own figures are: the true error inside its 3-sigma bound
+/// on at least [`EMULATED_INSIDE_PCT`] of the emulated run's ticks and on the 90 %
+/// of host-sim's, and the tag sightings used within ±25 % of the simulator's.
 pub fn route_run() -> Result<(u64, u64), String> {
     let f = crate::emulator_figures(&["--seconds", ROUTE_SECONDS, "--seed", ROUTE_SEED])?;
     let (pose, filter) = flown(&f)?;
