@@ -306,6 +306,8 @@ pub struct Slam<const W: usize, const H: usize> {
     map: GridMap<W, H>,
     counters: Counters,
     gate_rejections_in_a_row: u8,
+    /// The pose when the gate began to refuse every sighting, picture after picture.
+    refusals_from: Pose,
     /// Whether a tag the filter's gate refused since it last took one was refused at a
     /// range its listed place does not have.
     refused_off_range: bool,
@@ -352,6 +354,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             map: GridMap::new(config.geometry, config.evidence),
             counters: Counters::default(),
             gate_rejections_in_a_row: 0,
+            refusals_from: start,
             refused_off_range: false,
             off_range_in_a_row: 0,
             camera: CameraCheck::new(&config.fix.leap),
@@ -754,6 +757,9 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             FixOutcome::Rejected(FixRejection::Gate) => {
                 self.counters.fixes_rejected_gate += 1;
                 if self.camera.refused(leapt, crept) {
+                    if self.gate_rejections_in_a_row == 0 {
+                        self.refusals_from = self.pose;
+                    }
                     self.gate_rejections_in_a_row = self.gate_rejections_in_a_row.saturating_add(1);
                 } else {
                     self.counters.pictures_leapt += 1;
@@ -770,7 +776,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
                         self.camera.behind(lag);
                         self.counters.pictures_late += 1;
                         self.gate_rejections_in_a_row = 0;
-                    } else if self.estimator.forget_heading() {
+                    } else if self.estimator.forget_heading(self.driven_since_refusals()) {
                         self.relocalised();
                     }
                 }
@@ -779,6 +785,16 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             _ => {}
         }
         outcome
+    }
+
+    /// How far the pose moved since the gate began to refuse every sighting, x and y,
+    /// micrometres.
+    fn driven_since_refusals(&self) -> (i64, i64) {
+        let (from, now) = (&self.refusals_from, &self.pose);
+        (
+            i64::from(now.x_um) - i64::from(from.x_um),
+            i64::from(now.y_um) - i64::from(from.y_um),
+        )
     }
 
     /// A picture whose every sighting the gate refused: `together` with what the depth

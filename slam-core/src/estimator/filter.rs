@@ -319,7 +319,14 @@ impl Estimator {
     /// wide, and sightings still beyond it are likelier garbage, and an update of a wide,
     /// correlated pose goes past what the fixed-point matrix keeps definite. Returns
     /// whether it forgot.
-    pub fn forget_heading(&mut self) -> bool {
+    ///
+    /// `driven_um` is the way the pose moved since the sightings began to refuse it (x,
+    /// y, micrometres): driven at a heading going wrong, the position went aside of it
+    /// by half that way times the heading's error, as the error grew. The position is
+    /// tied to the forgotten heading along that way, so that the sighting that turns
+    /// the robot back also moves it back aside, where the heading alone would take the
+    /// whole bearing and leave the position off, which one tag cannot tell apart.
+    pub fn forget_heading(&mut self, driven_um: (i64, i64)) -> bool {
         let position = square(units::position_from_um(SURE_POSITION_MM * 1000));
         let heading = square(units::heading_from_mdeg(FORGOTTEN_HEADING_MDEG));
         let sure = self.p.get(State::X, State::X) <= position
@@ -331,6 +338,18 @@ impl Estimator {
         self.p.forget(State::X, 0);
         self.p.forget(State::Y, 0);
         self.p.forget(State::Heading, heading);
+        // The position's error is half the way across times the heading's: the
+        // Jacobian of a drive's displacement by its heading (as `predict`), halved.
+        let q16 = |x: i64| x.clamp(i32::MIN as i64, i32::MAX as i64) as i32;
+        let (dx, dy) = (
+            units::position_from_um(driven_um.0) / 2,
+            units::position_from_um(driven_um.1) / 2,
+        );
+        let tie = [
+            (State::X, State::Heading, q16(dy)),
+            (State::Y, State::Heading, q16(-dx)),
+        ];
+        self.p.propagate(&tie, &[0; N], &CEILING);
         self.settle();
         self.settle_fully = SETTLED_FULLY_AFTER_FORGETTING;
         self.ungated = true;
