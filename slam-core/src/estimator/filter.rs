@@ -726,6 +726,36 @@ mod tests {
         assert!(!e.ungated);
     }
 
+    /// A heading forgotten after a drive of 300 mm along +y is tied to x, half that way
+    /// across times the heading's error (the sign `predict`'s Jacobian gives), and y is
+    /// left alone; with no drive, nothing is tied.
+    #[test]
+    fn a_forgotten_heading_is_tied_to_the_position_across_the_way_driven() {
+        let mut still = Estimator::new(EstimatorConfig::SEED);
+        assert!(still.forget_heading((0, 0)));
+        assert_eq!(still.p.get(State::X, State::Heading), 0);
+        assert_eq!(still.p.get(State::Y, State::Heading), 0);
+
+        let mut e = Estimator::new(EstimatorConfig::SEED);
+        let (xx, yy) = (e.p.get(State::X, State::X), e.p.get(State::Y, State::Y));
+        assert!(e.forget_heading((0, 300_000)));
+        let heading = square(units::heading_from_mdeg(FORGOTTEN_HEADING_MDEG));
+        assert_eq!(e.p.get(State::Heading, State::Heading), heading);
+        assert_eq!(e.p.get(State::Y, State::Heading), 0);
+        assert_eq!(e.p.get(State::Y, State::Y), yy);
+        // x's error is 150 mm times the heading's (2 degrees): about 5.2 mm, which the
+        // variance gains, all of it tied to the heading.
+        let across = units::position_from_um(150_000);
+        let tied = e.p.get(State::X, State::Heading);
+        assert!(tied > 0, "{tied}");
+        let gained = e.p.get(State::X, State::X) - xx;
+        let want = square(units::position_from_um(5_236));
+        assert!(
+            (gained - want).abs() <= want / 50,
+            "x gained {gained}, want about {want} (across {across})"
+        );
+    }
+
     #[test]
     fn time_unseen_costs_deviation_in_proportion() {
         let (heading, x) = after_unseen(config::STALE_PERIOD_US);
