@@ -745,14 +745,13 @@ mod tests {
         assert_eq!(e.p.get(State::Y, State::Y), yy);
         // x's error is 150 mm times the heading's (2 degrees): about 5.2 mm, which the
         // variance gains, all of it tied to the heading.
-        let across = units::position_from_um(150_000);
         let tied = e.p.get(State::X, State::Heading);
         assert!(tied > 0, "{tied}");
         let gained = e.p.get(State::X, State::X) - xx;
         let want = square(units::position_from_um(5_236));
         assert!(
             (gained - want).abs() <= want / 50,
-            "x gained {gained}, want about {want} (across {across})"
+            "x gained {gained}, want about {want}"
         );
     }
 
