@@ -223,7 +223,6 @@ impl Estimator {
         let dt = units::seconds_q16_from_us(dt_us);
         // The Jacobian's off-diagonal part, Q16 (see the covariance module for why these
         // are the plain displacements).
-        let q16 = |x: i64| x.clamp(i32::MIN as i64, i32::MAX as i64) as i32;
         let mut d: [Entry; 6] = [(State::X, State::X, 0); 6];
         let mut n = 0;
         let mut push = |e: Entry| {
@@ -232,8 +231,9 @@ impl Estimator {
                 n += 1;
             }
         };
-        push((State::X, State::Heading, q16(dy)));
-        push((State::Y, State::Heading, q16(-dx)));
+        let [across_x, across_y] = across_heading(dx, dy);
+        push(across_x);
+        push(across_y);
         if flow_read {
             push((State::X, State::FlowScale, q16(dx)));
             push((State::Y, State::FlowScale, q16(dy)));
@@ -340,15 +340,10 @@ impl Estimator {
         self.p.forget(State::Heading, heading);
         // The position's error is half the way across times the heading's: the
         // Jacobian of a drive's displacement by its heading (as `predict`), halved.
-        let q16 = |x: i64| x.clamp(i32::MIN as i64, i32::MAX as i64) as i32;
-        let (dx, dy) = (
+        let tie = across_heading(
             units::position_from_um(driven_um.0) / 2,
             units::position_from_um(driven_um.1) / 2,
         );
-        let tie = [
-            (State::X, State::Heading, q16(dy)),
-            (State::Y, State::Heading, q16(-dx)),
-        ];
         self.p.propagate(&tie, &[0; N], &CEILING);
         self.settle();
         self.settle_fully = SETTLED_FULLY_AFTER_FORGETTING;
@@ -590,6 +585,20 @@ impl SightingNoise {
 /// Parts per million as a Q16 fraction.
 fn ppm_q16(ppm: u32) -> i64 {
     units::scale_from_ppm(i64::from(ppm))
+}
+
+/// A Jacobian entry in Q16, saturated to 32 bits.
+fn q16(x: i64) -> i32 {
+    x.clamp(i32::MIN as i64, i32::MAX as i64) as i32
+}
+
+/// The Jacobian's entries of a displacement `(dx, dy)` (filter units) by the heading it
+/// was made at: how far an error of that heading moves the position, across the way.
+fn across_heading(dx: i64, dy: i64) -> [Entry; 2] {
+    [
+        (State::X, State::Heading, q16(dy)),
+        (State::Y, State::Heading, q16(-dx)),
+    ]
 }
 
 #[cfg(test)]
