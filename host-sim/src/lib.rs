@@ -47,6 +47,7 @@ pub mod fault;
 pub mod fault_matrix;
 pub mod floor;
 pub mod live;
+pub mod matching;
 pub mod page;
 pub mod picture;
 pub mod record;

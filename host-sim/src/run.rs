@@ -3,6 +3,7 @@
 use crate::consistency::{estimator_figures, EstimatorFigures};
 use crate::fault::{Fault, Injector};
 use crate::floor::floor_mask;
+use crate::matching::MatchingFigures;
 use crate::record::{
     Belief, CellBelief, MapSnapshot, RunRecord, TickRecord, TrueCalibration, WorldOutline,
 };
@@ -212,6 +213,11 @@ pub struct Figures {
     /// absent when the core does not match (every mode but `slam`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub first_turn: Option<FirstTurnFigures>,
+    /// Scan matches used and refused by cause, and the drives at a wall that measured the
+    /// flow's scale; absent when the core does not match (every mode but `match` and
+    /// `slam`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub matching: Option<MatchingFigures>,
 }
 
 /// What came of the run's first turn on the spot: closed (the map drawn again at the
@@ -678,6 +684,9 @@ fn run_sized<const W: usize, const H: usize>(
         route_cut_at_s,
         estimator: estimator_figures(&ticks, Some(true_calibration)),
         first_turn: FirstTurnFigures::of(&first_turn),
+        matching: mode
+            .matches()
+            .then(|| MatchingFigures::of(slam.match_counters(), &walls.counters)),
     };
     let record = RunRecord {
         scenario: scenario.name.clone(),
