@@ -351,6 +351,12 @@ impl CameraCheck {
         self.run == Run::Drifted
     }
 
+    /// Whether the run of refused pictures is the camera's: it began with a leap or crept
+    /// since ([`CameraCheck::refused`]).
+    pub fn blamed(&self) -> bool {
+        self.run == Run::Leapt
+    }
+
     /// The filter forgot its heading: the next refusal begins a new run.
     pub fn relocalised(&mut self) {
         self.new_run();

@@ -533,7 +533,7 @@ impl Plausibility {
             let steps = steps.map_or(Ok(()), Err);
             let verdict = check_depth(scan, 0, config).and(steps).and(match tags {
                 Witness::Disagrees => Err(Doubt::DisagreesWithTag),
-                Witness::Agrees | Witness::Silent => Ok(()),
+                Witness::Agrees | Witness::Silent | Witness::Discredited => Ok(()),
             });
             // A sensor doubted for what a tag showed is trusted again only on tags'
             // word, whatever else doubted it first: a frame no tag checks says nothing

@@ -602,10 +602,14 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         )
     }
 
-    /// What the picture's tags say of the depth scan ([`crate::tag_range`]); silent in a
-    /// core built without the `tag-range` feature.
+    /// What the picture's tags say of the depth scan ([`crate::tag_range`]): nothing from a
+    /// discredited camera ([`Slam::camera_discredited`]); silent in a core built without
+    /// the `tag-range` feature.
     #[cfg(feature = "tag-range")]
     fn tags_on_depth(&self, frame: &SensorFrame, limits: &PlausibleConfig) -> Witness {
+        if self.camera_discredited() {
+            return Witness::Discredited;
+        }
         tag_range::witness(&self.zones, frame, &limits.tag_range)
     }
 
@@ -693,6 +697,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         let share = self
             .limits_tag_steps()
             .then(|| TagShare::of(frame.tags.len()));
+        self.estimator.doubt_camera(self.camera_discredited());
         for detection in frame.tags.iter() {
             let mut then = match carried {
                 Some((_, corrected)) => Some(corrected),
@@ -812,7 +817,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
     fn position_refused(&mut self, together: Option<Witness>) -> bool {
         self.off_range_in_a_row = match together {
             Some(Witness::Agrees | Witness::Silent) => self.off_range_in_a_row.saturating_add(1),
-            Some(Witness::Disagrees) | None => 0,
+            Some(Witness::Disagrees | Witness::Discredited) | None => 0,
         };
         let limit = self.config.fix.relocalise_after;
         let forgot =
@@ -830,6 +835,18 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         self.gate_rejections_in_a_row = 0;
         self.off_range_in_a_row = 0;
         self.camera.relocalised();
+    }
+
+    /// Whether the camera has lost its word: the filter refuses its pictures and blames it
+    /// ([`CameraCheck::blamed`]) where the map is matched, which holds the pose without
+    /// it. Its tags then neither doubt the depth sensor ([`Witness::Discredited`]) nor
+    /// pass the usual gate ([`Estimator::doubt_camera`]). Without matching the tags are
+    /// all the pose has besides dead reckoning, and a scan the camera disagrees with may
+    /// be drawn at a pose the camera was right to refuse: the depth sensor stays doubted,
+    /// and the gate as it is (refusing the camera only leaves the heading to drift).
+    #[inline(always)]
+    fn camera_discredited(&self) -> bool {
+        self.limits_tag_steps() && self.camera.blamed()
     }
 
     /// Whether a picture's tags may move the position at most

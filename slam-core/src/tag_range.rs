@@ -9,7 +9,10 @@
 //! [`TagRangeConfig::tolerance_mm`]; when they part, one of the two lies, and the core
 //! stops mapping until they agree again ([`crate::plausible`]). That is the cautious
 //! choice whichever lies: a lying camera's tags also misplace the pose that the scans are
-//! written at.
+//! written at. Unless the filter already refuses the camera's pictures and blames the
+//! camera for them where the map is matched ([`Witness::Discredited`]): then its tags
+//! move the pose no more, the matches hold it, and a tag read a few pixels aside, which
+//! falls in the wrong beam, would only stop the map and the matches that vouch for it.
 //!
 //! The check costs integer compares: each zone's edges are precomputed as picture
 //! columns, and the turn between the picture's moment and the scan's shifts the tag's
@@ -203,6 +206,11 @@ pub enum Witness {
     /// The first tag inside a zone with a return and its beam differ by more than the
     /// tolerance.
     Disagrees,
+    /// The camera is to blame for the pictures the filter refuses
+    /// ([`crate::camera_check::CameraCheck::blamed`]): its tags are not compared with the
+    /// scan, and a doubt they cast on the depth sensor is dropped. A tag read at the wrong
+    /// column falls in the wrong beam.
+    Discredited,
 }
 
 /// What the tags of `frame`'s picture say of its depth scan: the first tag that can be

@@ -9,7 +9,7 @@ use simulated::{Robot, Sensors};
 use slam_core::tagfix::KnownTag;
 use slam_core::{
     EstimatorConfig, FlowDelta, GyroRate, Localiser, Pose, SensorFrame, Slam, SlamConfig,
-    TagCounters, TagDetection, TagMap,
+    TagCounters, TagDetection, TagMap, TagRefusal,
 };
 
 fn t11() -> KnownTag {
@@ -291,6 +291,107 @@ fn a_sighting_just_past_the_gate_is_refused_and_one_just_inside_taken() {
     assert_ne!(taken.pose(), predicted.pose());
 }
 
+/// A camera blamed for the pictures the gate refused ([`Estimator::doubt_camera`]) is
+/// held to a gate of 6.0: from the seed start after a second of standing still, a reading
+/// of tag 11 whose statistic (by the `f64` reference) is about 9, inside the usual 13.8,
+/// is taken from a camera in good standing and refused, changing nothing, from a doubted
+/// one; a reading of about 3 is taken from either.
+#[test]
+fn a_doubted_camera_is_held_to_a_narrower_gate() {
+    let config = EstimatorConfig::SEED;
+    let start = world::shipped::seed_robot().start;
+    let camera = world::shipped::seed_robot().config.camera;
+    let mut slam = filter(start);
+    for _ in 0..11 {
+        slam.step(&still());
+    }
+    let estimator = slam.estimator().clone();
+    let p = rf::from_integer(estimator.covariance().rows());
+    let then = *slam.pose();
+    let place = (t11().x_mm as f64, t11().y_mm as f64);
+    let truth = read(&fpose(&then), place, 11);
+    let chi2 = |d: &TagDetection| {
+        let reading = Reading {
+            range_mm: d.distance_mm as f64,
+            cx_px: d.cx_centipx as f64 / 100.0,
+        };
+        rf::chi2(&p, &config, &fpose(&then), place, &reading).unwrap()
+    };
+    // The first readings, walking the column, past each statistic.
+    let past = |x: f64| {
+        (0..5_000)
+            .map(|step| TagDetection {
+                cx_centipx: truth.cx_centipx + step,
+                ..truth
+            })
+            .find(|d| chi2(d) > x)
+            .expect("a reading that far off")
+    };
+    let (plain, near) = (past(3.0), past(9.0));
+    assert!(chi2(&near) < 10.0 && chi2(&plain) < 4.0);
+    let sight = |doubted: bool, d: &TagDetection| {
+        let mut e = estimator.clone();
+        e.doubt_camera(doubted);
+        let outcome = e.sight(d, Some(&t11()), &camera, Some(then), None);
+        (outcome, e)
+    };
+    assert!(sight(false, &near).0.is_ok());
+    assert!(sight(false, &plain).0.is_ok());
+    assert!(sight(true, &plain).0.is_ok());
+    let (outcome, refused) = sight(true, &near);
+    assert_eq!(outcome, Err(TagRefusal::Gate));
+    assert_eq!(refused.covariance(), estimator.covariance());
+    assert_eq!(refused.counters().gate, estimator.counters().gate + 1);
+}
+
+/// A tag's centre read past the picture's edge is no reading: the tag is found only
+/// whole in the picture. Turned so that tag 11 is 0.3 px inside the right edge (its
+/// bearing 59.9 degrees off the nose), a reading 1.5 px past the edge, 1.8 px off the
+/// truth (0.3 degrees there, well inside the gate), is refused outright for its column
+/// alone and changes nothing; the true reading is taken.
+#[test]
+fn a_tag_read_past_the_pictures_edge_is_no_reading() {
+    let camera = world::shipped::seed_robot().config.camera;
+    let seed_start = world::shipped::seed_robot().start;
+    // The nose turned from tag 11 by the bearing of the column 0.3 px inside the edge.
+    let (dx, dy) = (
+        t11().x_mm as f64 - seed_start.x_um as f64 / 1000.0,
+        t11().y_mm as f64 - seed_start.y_um as f64 / 1000.0,
+    );
+    let edge_px = camera.centre_centipx as f64 / 100.0;
+    let off_nose = ((edge_px - 0.3) / (camera.focal_centipx as f64 / 100.0)).atan();
+    let heading = reference::heading_of(dx, dy) - off_nose;
+    let start = Pose {
+        heading: slam_core::Angle::from_millidegrees((heading.to_degrees() * 1000.0).round() as i64),
+        ..seed_start
+    };
+    let mut slam = filter(start);
+    for _ in 0..10 {
+        slam.step(&still());
+    }
+    let then = *slam.pose();
+    let truth = read(&fpose(&then), (t11().x_mm as f64, t11().y_mm as f64), 11);
+    let width = 2 * camera.centre_centipx;
+    assert!(
+        (width - 60..width).contains(&truth.cx_centipx),
+        "tag 11 at column {}",
+        truth.cx_centipx
+    );
+    let past = TagDetection {
+        cx_centipx: width + 150,
+        ..truth
+    };
+    let mut e = slam.estimator().clone();
+    let outcome = e.sight(&past, Some(&t11()), &camera, Some(then), None);
+    assert_eq!(outcome, Err(TagRefusal::Gate));
+    assert!(e.refused_at_its_range());
+    assert_eq!(e.covariance(), slam.estimator().covariance());
+    let mut e = slam.estimator().clone();
+    assert!(e
+        .sight(&truth, Some(&t11()), &camera, Some(then), None)
+        .is_ok());
+}
+
 /// `config` without the plausibility checks (`slam_core::plausible`): these inputs are
 /// synthetic (constant rates, repeated frames, a robot that never holds), and the checks
 /// are not what this file tests.
@@ -301,8 +402,8 @@ fn unchecked(config: slam_core::SlamConfig) -> slam_core::SlamConfig {
     }
 }
 
-/// A column further off the centre than the picture is wide is no reading (a camera
-/// sending garbage): refused outright and counted by the gate, however wide the gate is,
+/// A column far past the picture's edge is no reading (a camera sending garbage): refused
+/// outright and counted by the gate, however wide the gate is,
 /// and nothing moves. Here the filter knows its heading only to 90 degrees, and the
 /// column (as far right as 32 bits go) is 60 degrees from tag 12's predicted bearing.
 #[test]

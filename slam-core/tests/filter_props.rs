@@ -194,7 +194,9 @@ fn sighting(c: &Case, p: &Matrix, config: &EstimatorConfig) -> (KnownTag, TagDet
             .to_radians()
             .powi(2))
     .sqrt();
-    let seen = (bearing + c.bearing_sds * sd_bearing).clamp(-1.2, 1.2);
+    // Within the picture: a column past its edge is no reading at all.
+    let edge = reference::bearing(2.0 * reference::CENTRE_PX - 0.5);
+    let seen = (bearing + c.bearing_sds * sd_bearing).clamp(-edge, edge);
     let detection = TagDetection {
         id: 11,
         cx_centipx: (reference::column_of(seen) * 100.0).round() as i32,

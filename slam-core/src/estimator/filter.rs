@@ -94,6 +94,9 @@ pub struct Estimator {
     /// Whether the next sighting is taken whatever the gate says
     /// ([`Estimator::forget_heading`]).
     pub(super) ungated: bool,
+    /// Whether sightings are held to the doubted camera's gate
+    /// ([`Estimator::doubt_camera`]).
+    pub(super) camera_doubted: bool,
     /// Whether the last sighting was refused by the gate at its range
     /// ([`Estimator::refused_at_its_range`]).
     pub(super) refused_at_its_range: bool,
@@ -129,6 +132,7 @@ impl Estimator {
             settle_part: 0,
             settle_fully: 0,
             ungated: false,
+            camera_doubted: false,
             refused_at_its_range: false,
             refused_by: (0, 0),
         };

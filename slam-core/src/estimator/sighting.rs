@@ -19,6 +19,18 @@ const MIN_JACOBIAN_RANGE_MM: i64 = 50;
 /// deviations) agrees with the tag's listed place ([`Estimator::refused_at_its_range`]).
 const RANGE_AGREES_CHI2_Q8: i64 = 100 << 8;
 
+/// The gate a doubted camera's sightings are held to ([`Estimator::doubt_camera`]), Q8:
+/// 6.0, which 95 % of honest sightings pass (chi-square, 2 degrees of freedom). A camera
+/// putting its tags a few pixels aside lies least at the picture's edge, where the lie
+/// fits just inside the usual gate once the filter has grown unsure; taken, it draws the
+/// filter towards the next.
+const DOUBTED_GATE_CHI2_Q8: u32 = 1536;
+
+/// How far past the picture's edge a tag's centre may be read, hundredths of a pixel: a
+/// pixel, the detector's noise many times over. A tag is found only whole in the
+/// picture, so its centre further out is no reading at all.
+const PAST_EDGE_CENTIPX: u64 = 100;
+
 /// Sines (Q16) below this, 0.1, take their angle from [`asin_small`].
 const ASIN_SERIES_BELOW: i64 = 6554;
 
@@ -146,6 +158,13 @@ impl Estimator {
             None => [0; N],
         };
         [k_range, k_bearing]
+    }
+
+    /// Holds the sightings that follow to a gate of 6.0 while `doubted` (95 % of honest
+    /// sightings pass it): a camera blamed for the pictures the gate refused
+    /// ([`crate::camera_check`]) is trusted again only on a sighting that plainly agrees.
+    pub fn doubt_camera(&mut self, doubted: bool) {
+        self.camera_doubted = doubted;
     }
 
     /// Whether the last sighting was refused by the gate for its bearing alone: read at
@@ -315,10 +334,15 @@ impl Estimator {
         // asin(x) = x + x^3 / 6 to 1e-6 rad below 0.1 (as nearly every innovation is), the
         // angle itself by CORDIC past it; more than a quarter turn off is refused outright.
         let nu_range = i64::from(detection.distance_mm) * units::POSITION_PER_MM - range;
-        // A column further off the centre than the picture is wide is no reading at all:
-        // refused outright, as the gate would refuse it.
+        // A column past the picture's edge (the centre column's own distance from it) is no
+        // reading at all: refused outright, as the gate would refuse it, for its column
+        // alone (it says nothing of the range, and a column no camera reads is the
+        // camera's doing: a leap, [`crate::camera_check`]).
         let off_centre = i64::from(detection.cx_centipx) - i64::from(camera.centre_centipx);
-        if off_centre.unsigned_abs() > 2 * u64::from(camera.centre_centipx.unsigned_abs()) {
+        if off_centre.unsigned_abs()
+            > u64::from(camera.centre_centipx.unsigned_abs()) + PAST_EDGE_CENTIPX
+        {
+            self.refused_at_its_range = true;
             self.refused_by = (i32::MAX, i32::MAX);
             return Err(TagRefusal::Gate.into());
         }
@@ -389,7 +413,11 @@ impl Estimator {
         };
         let range_chi2 = normalised_square_q8(nu_range, &inv_range);
         let chi2 = range_chi2.saturating_add(normalised_square_q8(nu_bearing, &inv_bearing));
-        if chi2 > i64::from(cfg.gate_chi2_q8) && !self.ungated {
+        let gate = match self.camera_doubted {
+            true => cfg.gate_chi2_q8.min(DOUBTED_GATE_CHI2_Q8),
+            false => cfg.gate_chi2_q8,
+        };
+        if chi2 > i64::from(gate) && !self.ungated {
             self.refused_at_its_range = range_chi2 <= RANGE_AGREES_CHI2_Q8;
             self.refused_by = (clamp(nu_bearing), clamp(nu_range));
             return Err(TagRefusal::Gate.into());
