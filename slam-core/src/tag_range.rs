@@ -208,8 +208,8 @@ pub enum Witness {
     Disagrees,
     /// The camera is to blame for the pictures the filter refuses
     /// ([`crate::camera_check::CameraCheck::blamed`]): its tags are not compared with the
-    /// scan, and a doubt they cast on the depth sensor is dropped. A tag read at the wrong
-    /// column falls in the wrong beam.
+    /// scan, and a doubt they cast on the depth sensor is lifted as any other, by frames
+    /// its own checks pass. A tag read at the wrong column falls in the wrong beam.
     Discredited,
 }
 
