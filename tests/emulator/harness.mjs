@@ -41,6 +41,7 @@ import { RttDrain } from './rtt.mjs';
 import { runBothCores, WATCHDOG_RESET } from './scheduler.mjs';
 import { round } from './result.mjs';
 import { retainedState } from './retained.mjs';
+import { stackMeter } from './stacks.mjs';
 import { StepMeter, findStep, findFilterCode } from './step.mjs';
 import { MatchMeter, findMatcher } from './match.mjs';
 import { UsbHost, selfTests as usbTests } from './usb-host.mjs';
@@ -154,6 +155,7 @@ function main() {
     ? (asleep, inStep) => (asleep && faults.once('core0-hang')) || (inStep && faults.once('step-hang'))
     : null;
   const retained = retainedState(elf);
+  const stacks = stackMeter(elf);
   const resets = [];
 
   let run, truth = null;
@@ -204,6 +206,7 @@ function main() {
 
   const result = buildResult({
     args, chip: lastChip, run, meter, matchMeter, rtt, world, motors, truth, devices, faults, resets,
+    stacks: stacks.read(lastChip.rp),
     telemetryBytes: telemetry.length,
     usb: usbHost ? usbHost.summary() : 'unplugged (--no-usb)',
     profile: profileResult(profilers, meter.cycles.length),

@@ -16,7 +16,7 @@ const loadPct = (cycles, seconds) => round((100 * cycles) / (seconds * NOMINAL_C
 /// baseline outputs were written with.
 /// `run` holds the figures of every boot summed (instructions and cycles of both cores);
 /// `chip` and `devices` are the last boot's; `resets` lists the watchdog resets.
-export function buildResult({ args, chip, run, meter, matchMeter, rtt, telemetryBytes, usb, world, motors, truth, devices, faults, resets, profile }) {
+export function buildResult({ args, chip, run, meter, matchMeter, rtt, telemetryBytes, usb, world, motors, truth, devices, faults, resets, stacks, profile }) {
   const { rp, core, core1, clock, messages } = chip;
   const simS = clock.nanos / 1e9;
   const { flow, imu, imuBus, depth, depthBus, camera } = devices;
@@ -51,6 +51,7 @@ export function buildResult({ args, chip, run, meter, matchMeter, rtt, telemetry
     usb,
     faults_injected: faults.report(),
     resets,
+    stacks,
     emulator_messages: [...messages].slice(0, 20).map(([k, n]) => `${n}x ${k}`),
     ...profile,
   };

@@ -289,6 +289,15 @@ fn bench(args: &BenchArgs) -> Result<(), String> {
         "  beams mapped {}, core 1 load {} % (the depth sensor's driver)",
         figures["view"]["counters"]["beams_mapped"], e["devices"]["core1"]["load_pct"]
     );
+    let stack = |core: &str| {
+        let s = &e["stacks"][core];
+        format!("{} of {} bytes", s["peak_bytes"], s["size_bytes"])
+    };
+    println!(
+        "  deepest stack writes: core 0 {}, core 1 {} (a floor: read from SRAM after the run)",
+        stack("core0"),
+        stack("core1")
+    );
     println!(
         "  ticks {}, overruns {}, CPU load {} %, {} simulated s per wall s",
         n("ticks_seen"),

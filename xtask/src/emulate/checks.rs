@@ -122,8 +122,9 @@ stale on {depth_stale} ticks, {} beams mapped, known {:.1} %; flow stale on {} t
 
 /// The checks every whole-route run makes: no collision with a wall (the world's count),
 /// 10 Hz kept over `seconds` (at most one tick in a hundred lost), no overrun by the
-/// emulator's count or the firmware's own, and no reset (the firmware counted every tick
-/// the viewer got, and the stream never started over).
+/// emulator's count or the firmware's own, no reset (the firmware counted every tick
+/// the viewer got, and the stream never started over), and each core's stack within
+/// half its room ([`stack_checks`]).
 fn timing_checks(
     e: &serde_json::Value,
     v: &serde_json::Value,
@@ -151,6 +152,40 @@ fn timing_checks(
         (
             "no reset: the firmware's tick count is every tick received".into(),
             num(&v["counters"]["ticks"]) == ticks && num(&v["restarts"]) == 0.0,
+        ),
+    ]
+    .into_iter()
+    .chain(stack_checks(e))
+    .collect()
+}
+
+/// Each core's deepest stack write (the harness reads it from SRAM after the run:
+/// `tests/emulator/stacks.mjs`) within half the room it has: core 1's own stack, and for
+/// core 0 what the chip leaves beside a world at the RAM budget, the least any world's
+/// firmware gives it. The reading is a floor (a frame's lowest bytes may have held only
+/// zeros), hence the half.
+fn stack_checks(e: &serde_json::Value) -> [(String, bool); 2] {
+    let s = &e["stacks"];
+    let peak = |core: &str| s[core]["peak_bytes"].as_u64();
+    let core1_size = s["core1"]["size_bytes"].as_u64();
+    let room = crate::firmware::STACK_ROOM;
+    [
+        (
+            format!(
+                "core 0's stack went {} bytes deep: within half the {room} bytes a world at the RAM budget leaves it",
+                peak("core0").map_or("?".into(), |p| p.to_string())
+            ),
+            peak("core0").is_some_and(|p| 2 * p <= room),
+        ),
+        (
+            format!(
+                "core 1's stack went {} bytes deep: within half its {} bytes",
+                peak("core1").map_or("?".into(), |p| p.to_string()),
+                core1_size.map_or("?".into(), |p| p.to_string())
+            ),
+            peak("core1")
+                .zip(core1_size)
+                .is_some_and(|(p, size)| 2 * p <= size),
         ),
     ]
 }

@@ -14,6 +14,9 @@ const FLASH_BUDGET: u64 = 192 * 1024;
 /// Static RAM, the world's grid included (issue 12: a 6 m room at 5 cm, and more, must
 /// fit); the stack has the rest of the chip's 264 KB.
 const RAM_BUDGET: u64 = 96 * 1024;
+/// What the chip's RAM leaves core 0's stack beside the statics of a world at the RAM
+/// budget: the least any world's firmware gives it.
+pub const STACK_ROOM: u64 = RAM_SIZE as u64 - RAM_BUDGET;
 
 /// Flash and static RAM use, from the section headers.
 pub struct Usage {

@@ -43,6 +43,7 @@ use std::path::PathBuf;
 use std::process::Command;
 
 use budget::Usage;
+pub use budget::STACK_ROOM;
 use image::{Elf, FlashImage, FLASH_BASE, UF2_FAMILY_RP2040};
 pub use toolchain::rustup_has_target;
 use toolchain::{Toolchain, C_TOOLCHAIN_ENV};
