@@ -46,9 +46,11 @@ fn first_turns(name: &str) -> Vec<(f64, f64)> {
             let scans: Vec<SpinScan> = ticks[..spin]
                 .iter()
                 .zip(&out.frames)
-                .map(|(t, f)| SpinScan {
-                    heading: angle(t.estimate_heading_deg),
-                    ranges_mm: f.depth.map(|d| d.ranges_mm).unwrap_or_default(),
+                .map(|(t, f)| {
+                    SpinScan::new(
+                        angle(t.estimate_heading_deg),
+                        &f.depth.map(|d| d.ranges_mm).unwrap_or_default(),
+                    )
                 })
                 .collect();
             let (mut estimated, mut truth) = (0.0, 0.0);

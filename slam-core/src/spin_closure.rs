@@ -23,12 +23,47 @@ use crate::angle::Angle;
 use crate::frame::BEAMS;
 
 /// One tick of the turn: its heading as integrated, and the depth scan read there.
-#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+///
+/// The ranges are kept in two bytes each, [`SpinScan::NO_RANGE`] for none, rather than as
+/// `Option<u16>` (four): the first turn keeps 150 of these beside a room's map, in RAM
+/// that starts zeroed.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub struct SpinScan {
     /// The heading, as the odometry gave it.
     pub heading: Angle,
+    /// Range along each beam, millimetres, or [`SpinScan::NO_RANGE`].
+    ranges_mm: [u16; BEAMS],
+}
+
+impl Default for SpinScan {
+    fn default() -> Self {
+        SpinScan::BLIND
+    }
+}
+
+impl SpinScan {
+    /// A beam with no reading. Zero, so that an empty store is all zero bits; a depth
+    /// sensor reads no surface at its own window, so a reading of 0 mm is taken as none.
+    pub const NO_RANGE: u16 = 0;
+
+    /// No heading and no reading.
+    pub const BLIND: SpinScan = SpinScan {
+        heading: Angle::ZERO,
+        ranges_mm: [Self::NO_RANGE; BEAMS],
+    };
+
+    /// The scan `ranges_mm` read at `heading`.
+    pub fn new(heading: Angle, ranges_mm: &[Option<u16>; BEAMS]) -> SpinScan {
+        SpinScan {
+            heading,
+            ranges_mm: ranges_mm.map(|r| r.unwrap_or(Self::NO_RANGE)),
+        }
+    }
+
     /// Range along each beam, millimetres.
-    pub ranges_mm: [Option<u16>; BEAMS],
+    pub fn ranges_mm(&self) -> [Option<u16>; BEAMS] {
+        self.ranges_mm.map(|r| (r != Self::NO_RANGE).then_some(r))
+    }
 }
 
 /// The turn's measured excess: how far its integrated heading ran past the true one over
@@ -140,8 +175,10 @@ pub struct Search {
     /// The first scans' readings, by bearing along the turn.
     profile: [Reading; PROFILE_READINGS],
     held: usize,
-    /// Each slide's capped squared disagreements and their count.
-    sums: [i64; STEPS],
+    /// Each slide's capped squared disagreements and their count. Words: each at most
+    /// 9 in Q16, so 3,600 readings fit, and a turn has fewer (a closure compares its last
+    /// scans alone); past that a sum saturates.
+    sums: [i32; STEPS],
     counts: [u32; STEPS],
     /// The next scan to lay over the profile and its next beam, whether its turn is
     /// counted yet, and the turn so far (binary units, unwrapped) at the last heading
@@ -236,18 +273,20 @@ impl Search {
             }
             let turn = turn_mdeg(self.bits).saturating_mul(self.sign);
             let readings = s.ranges_mm.iter().zip(&self.beams).skip(self.beam);
-            for (range, beam) in readings.take_while(|_| turn >= self.reach) {
+            for (&range, beam) in readings.take_while(|_| turn >= self.reach) {
                 if left == 0 {
                     return false;
                 }
                 self.beam += 1;
-                let Some(range) = range else { continue };
+                if range == SpinScan::NO_RANGE {
+                    continue;
+                }
                 left -= 1;
-                let (bearing, range) = (turn + beam, i32::from(*range));
+                let (bearing, range) = (turn + beam, i32::from(range));
                 for (k, (sum, count)) in self.sums.iter_mut().zip(&mut self.counts).enumerate() {
                     let slide = k as i32 * SLIDE_MDEG - MAX_EXCESS_MDEG;
                     if let Some(seen) = interpolate(profile, bearing - 360_000 - slide) {
-                        *sum += disagreement_q8(range, seen);
+                        *sum = sum.saturating_add(disagreement_q8(range, seen));
                         *count += 1;
                     }
                 }
@@ -263,7 +302,8 @@ impl Search {
     /// sure it is.
     pub fn finish(&self) -> Result<Closure, ClosureRefusal> {
         let (sums, counts) = (&self.sums, &self.counts);
-        let judged = |k: usize| (counts[k] >= MIN_COMPARED).then(|| (sums[k], counts[k]));
+        let judged =
+            |k: usize| (counts[k] >= MIN_COMPARED).then(|| (i64::from(sums[k]), counts[k]));
         // The best slide: the least mean cost (compared as cross products, no division).
         let mut best: Option<usize> = None;
         for k in 0..STEPS {
@@ -399,7 +439,7 @@ fn each_reading(
 ) {
     each_turn(scans, |turn, s| {
         let turn = turn.saturating_mul(sign);
-        for (range, beam) in s.ranges_mm.iter().zip(beams) {
+        for (range, beam) in s.ranges_mm().iter().zip(beams) {
             if let Some(r) = range {
                 let bearing_mdeg = turn + beam;
                 f(
@@ -432,10 +472,10 @@ fn interpolate(profile: &[Reading], bearing: i32) -> Option<i32> {
 
 /// A reading's squared disagreement with the profile, in the sensor's noise at its range,
 /// Q16, capped at [`CAP_Q8`]'s 3 sigma.
-fn disagreement_q8(range_mm: i32, seen_mm: i32) -> i64 {
+fn disagreement_q8(range_mm: i32, seen_mm: i32) -> i32 {
     let noise = i64::from(NOISE_MM + range_mm * NOISE_PER_100 / 100).max(1);
     let e = i64::from(range_mm - seen_mm) * 256 / noise;
-    (e * e).min(CAP_Q8)
+    (e * e).min(CAP_Q8) as i32
 }
 
 #[cfg(test)]

@@ -58,10 +58,10 @@ fn spin(x: f64, y: f64, direction: f64, scale_error: f64, seed: u64) -> Vec<Spin
                     *r = reading.map(|t| t.round().clamp(0.0, 4000.0) as u16);
                 }
             }
-            SpinScan {
-                heading: Angle::from_millidegrees((direction * integrated * 1000.0).round() as i64),
-                ranges_mm,
-            }
+            SpinScan::new(
+                Angle::from_millidegrees((direction * integrated * 1000.0).round() as i64),
+                &ranges_mm,
+            )
         })
         .collect()
 }
@@ -160,10 +160,7 @@ fn what_is_not_a_closure_is_refused() {
     assert_eq!(measure(&[], &beams), Err(ClosureRefusal::NotAFullTurn));
     let blind: Vec<SpinScan> = scans
         .iter()
-        .map(|s| SpinScan {
-            ranges_mm: [None; BEAMS],
-            ..*s
-        })
+        .map(|s| SpinScan::new(s.heading, &[None; BEAMS]))
         .collect();
     assert_eq!(measure(&blind, &beams), Err(ClosureRefusal::TooFewReadings));
 }

@@ -41,7 +41,11 @@ impl Window {
     /// with the interpolation's neighbour, wherever it starts in a cell.
     pub fn new(side: usize, step: i32, cell: i32) -> Option<Window> {
         let span = (side as i32 - 1).checked_mul(step)?;
-        if step < 1 || step > cell || span > (FOOTPRINT as i32 - 2) * cell {
+        if step < 1
+            || step > cell
+            || cell > i32::from(u16::MAX)
+            || span > (FOOTPRINT as i32 - 2) * cell
+        {
             return None;
         }
         Some(Window {
@@ -58,34 +62,44 @@ impl Window {
 /// The block is [`FOOTPRINT`] cells a side wherever the window starts in a cell, and kept
 /// from one heading to the next: half a degree moves an end a metre away by 9 mm, so the
 /// block usually starts at the same cell, and then is not looked up again.
+///
+/// 160 of these are kept beside the map, so the small fields are halfwords, laid out
+/// (`repr(C)`) first, where the M0+'s loads reach them with an immediate offset.
 #[derive(Clone, Copy, Debug)]
+#[repr(C)]
 pub(super) struct Footprint {
-    /// Score of each cell of the block, `[row][column]` from the block's lower-left.
-    /// Words, not halfwords: the M0+ loads a halfword only from a register offset.
-    pub scores: [[i32; FOOTPRINT]; FOOTPRINT],
-    /// The block's lower-left cell, `(column, row)`; `None` before the first fill.
-    corner: Option<(i32, i32)>,
     /// How far past the block's first column's centre the window's lowest translation
-    /// puts the end, millimetres (`0..cell`).
-    pub within_x: i32,
+    /// puts the end, millimetres (`0..cell`; [`Window::new`] takes cells that fit).
+    pub within_x: u16,
     /// The same along y, past the first row's centre.
-    pub within_y: i32,
-    /// The largest score in the block: what any translation can give this end.
-    pub max: i32,
+    pub within_y: u16,
+    /// The largest score in the block: what any translation can give this end (a score
+    /// is a halfword, [`ScoreTable::of`]).
+    pub max: i16,
     /// Whether any cell of the block scores: an end among unknown cells adds nothing at
     /// any translation, and is skipped.
     pub scores_any: bool,
+    /// Whether a block has been looked up, at `corner`. A flag rather than an `Option`, so
+    /// that an empty footprint is all zero bits and 160 of them are cleared, not copied.
+    looked_up: bool,
+    /// The block's lower-left cell, `(column, row)`.
+    corner: (i32, i32),
+    /// Score of each cell of the block, `[row][column]` from the block's lower-left.
+    /// Words, not halfwords: the M0+ loads a signed halfword only from a register offset,
+    /// and the spread reads these for every end at every heading.
+    pub scores: [[i32; FOOTPRINT]; FOOTPRINT],
 }
 
 impl Footprint {
     /// A footprint with nothing in it, to fill.
     pub const EMPTY: Footprint = Footprint {
-        scores: [[0; FOOTPRINT]; FOOTPRINT],
-        corner: None,
         within_x: 0,
         within_y: 0,
         max: 0,
         scores_any: false,
+        looked_up: false,
+        corner: (0, 0),
+        scores: [[0; FOOTPRINT]; FOOTPRINT],
     };
 
     /// Places this for an end at grid-relative `(x, y)` millimetres (from the grid's
@@ -103,9 +117,10 @@ impl Footprint {
         // From the cells' centres: the cell whose centre is below and to the left.
         let (column, within_x) = window.divider.div_rem(low.0 - half);
         let (row, within_y) = window.divider.div_rem(low.1 - half);
-        self.within_x = within_x;
-        self.within_y = within_y;
-        if self.corner == Some((column, row)) {
+        // Remainders of the cell, which fits a halfword.
+        self.within_x = within_x as u16;
+        self.within_y = within_y as u16;
+        if self.looked_up && self.corner == (column, row) {
             return 0;
         }
         self.look_up(map, scores, column, row);
@@ -141,8 +156,10 @@ impl Footprint {
                 }
             }
         }
-        self.corner = Some((column, row));
-        self.max = max;
+        self.looked_up = true;
+        self.corner = (column, row);
+        // The largest of sixteen halfword scores.
+        self.max = max as i16;
         self.scores_any = any != 0;
     }
 }

@@ -13,8 +13,11 @@ use super::footprint::FOOTPRINT;
 /// Cells up to this size, in millimetres, have their runs in a table.
 const TABLED: usize = 128;
 
-/// Most patterns an axis may have for its ends to be summed.
-pub(super) const PATTERNS: usize = 8;
+/// Most patterns an axis may have for its ends to be summed, beyond which every end is
+/// spread on its own (slower, the same sums). Steps that divide the cell fall in at most
+/// `cell / step` patterns (1 cm steps on 5 cm cells: five); others in more. Each pair
+/// of patterns holds a 144-byte sum, so the matcher's RAM grows with the square of this.
+pub(super) const PATTERNS: usize = 6;
 
 /// Runs along one axis: how many translations each, how far past its cell centre's line
 /// the first of each lands, in millimetres, and the pattern of the counts if numbered.
@@ -156,13 +159,14 @@ mod tests {
 
     #[test]
     fn runs_are_those_stepped_through_tabled_or_not() {
-        // Tabled; tabled with a step that does not divide the cell; too many patterns;
-        // a cell too large for the table.
+        // Tabled (six patterns at most); a step that does not divide the cell, seven
+        // patterns; a cell too large for the table.
         for (side, step, cell, tabled) in [
             (7, 10, 50, true),
-            (7, 7, 30, true),
+            (7, 10, 60, true),
             (7, 1, 3, true),
             (5, 25, 50, true),
+            (7, 7, 30, false),
             (7, 60, 200, false),
         ] {
             let Some(table) = RunTable::new(side, step, cell) else {

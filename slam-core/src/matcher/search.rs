@@ -116,7 +116,7 @@ impl<const SIDE: usize> Search<'_, SIDE> {
                 for (sides, p) in self.feet.iter_mut().zip(self.points) {
                     let foot = &mut sides[side];
                     stats.lookups += foot.fill(self.map, &self.setup.table, place.of(p), window);
-                    bound += foot.max * cell * cell;
+                    bound += i32::from(foot.max) * cell * cell;
                     if offset == 0 {
                         // The other side's first heading starts from this one's blocks.
                         sides[1] = sides[0];

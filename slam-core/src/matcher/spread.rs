@@ -48,7 +48,11 @@ pub(super) struct Patterns {
     sums: [[[Rectangle; RUNS]; RUNS]; PATTERNS * PATTERNS],
 }
 
-const _: () = assert!(PATTERNS * PATTERNS <= u64::BITS as usize);
+/// A pair of patterns' bit in `used`: x's times this plus y's, so that the spread takes
+/// the pair back with a shift and a mask (the M0+ has no divide).
+const STRIDE: usize = 8;
+
+const _: () = assert!(PATTERNS <= STRIDE && STRIDE * STRIDE <= u64::BITS as usize);
 
 impl Patterns {
     /// Nothing summed.
@@ -76,19 +80,18 @@ impl Patterns {
         f: &Footprint,
         w: &Window,
     ) {
-        let along_x = w.runs.runs(f.within_x);
-        let along_y = w.runs.runs(f.within_y);
+        let along_x = w.runs.runs(i32::from(f.within_x));
+        let along_y = w.runs.runs(i32::from(f.within_y));
         let (Some(px), Some(py)) = (along_x.pattern, along_y.pattern) else {
             for_each_rectangle(f, &along_x, &along_y, w, |r, c, sum| {
                 add_rectangle(scores, run_of(&along_y, r), run_of(&along_x, c), sum);
             });
             return;
         };
-        let index = px * PATTERNS + py;
-        let Some(sums) = self.sums.get_mut(index) else {
+        let Some(sums) = self.sums.get_mut(px * PATTERNS + py) else {
             return;
         };
-        let bit = 1u64 << index;
+        let bit = 1u64 << (px * STRIDE + py);
         if self.used & bit == 0 {
             *sums = [[Rectangle::default(); RUNS]; RUNS];
             self.used |= bit;
@@ -108,10 +111,11 @@ impl Patterns {
         while used != 0 {
             let index = used.trailing_zeros() as usize;
             used &= used - 1;
-            let Some(sums) = self.sums.get(index) else {
+            let (px, py) = (index / STRIDE, index % STRIDE);
+            let Some(sums) = self.sums.get(px * PATTERNS + py) else {
                 continue;
             };
-            let (columns, rows) = (runs.counts(index / PATTERNS), runs.counts(index % PATTERNS));
+            let (columns, rows) = (runs.counts(px), runs.counts(py));
             let mut top = 0;
             for (&height, row_sums) in rows.iter().zip(sums) {
                 let mut left = 0;
@@ -219,7 +223,8 @@ mod tests {
         };
         core::array::from_fn(|j| {
             core::array::from_fn(|i| {
-                let ((r, py), (c, px)) = (at(f.within_y, j), at(f.within_x, i));
+                let (y, x) = (i32::from(f.within_y), i32::from(f.within_x));
+                let ((r, py), (c, px)) = (at(y, j), at(x, i));
                 let s = |r: usize, c: usize| f.scores[r][c];
                 s(r, c) * (w.cell - px) * (w.cell - py)
                     + s(r, c + 1) * px * (w.cell - py)
@@ -250,8 +255,8 @@ mod tests {
                         *s = [4, -2, 0][(rng.next_u64() >> 33) as usize % 3];
                     }
                 }
-                f.within_x = ((rng.next_u64() >> 33) % 50) as i32;
-                f.within_y = ((rng.next_u64() >> 33) % 50) as i32;
+                f.within_x = ((rng.next_u64() >> 33) % 50) as u16;
+                f.within_y = ((rng.next_u64() >> 33) % 50) as u16;
                 patterns.add(&mut summed, &f, &w);
                 unused.add(&mut single, &f, &one_by_one);
                 for (row, add) in want.iter_mut().zip(interpolated(&f, &w)) {

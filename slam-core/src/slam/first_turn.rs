@@ -112,10 +112,7 @@ impl FirstTurn {
             }),
             start: None,
             turned_ndeg: 0,
-            scans: [SpinScan {
-                heading: Angle::ZERO,
-                ranges_mm: [None; crate::frame::BEAMS],
-            }; FIRST_TURN_SCANS],
+            scans: [SpinScan::BLIND; FIRST_TURN_SCANS],
             places: [Place {
                 x_um: 0,
                 y_um: 0,
@@ -204,10 +201,10 @@ impl FirstTurn {
         ) else {
             return Err(GiveUp::TooLong);
         };
-        *s = SpinScan {
-            heading: Angle::from_millidegrees(i64::from(turned_mdeg)),
-            ranges_mm: scan.ranges_mm,
-        };
+        *s = SpinScan::new(
+            Angle::from_millidegrees(i64::from(turned_mdeg)),
+            &scan.ranges_mm,
+        );
         *p = Place {
             x_um,
             y_um,
@@ -231,7 +228,7 @@ impl FirstTurn {
         scans.iter().zip(places).map(|(s, p)| {
             (
                 DepthScan {
-                    ranges_mm: s.ranges_mm,
+                    ranges_mm: s.ranges_mm(),
                 },
                 (p.x_um, p.y_um),
                 p.turned_mdeg,
