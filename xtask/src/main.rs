@@ -128,7 +128,8 @@ pub fn cargo() -> Command {
 /// Every test the project has: the host crates, the live page in headless Chromium, the
 /// emulator's own self-tests (its device models and harness), the firmware build with its
 /// flash and RAM budget check, and the firmware itself on the emulated RP2040 (faults, the
-/// fault matrix's 24 cases, the seed route, a reset and a room). Ends with
+/// fault matrix's 24 cases, the seed route, a reset and a room), and the firmware built
+/// for every shipped world within its budget. Ends with
 /// one line totalling the tests, so a reader (or CI) does not have to add up cargo's lines.
 fn test() -> Result<(), String> {
     let (cargo_passed, cargo_failed) = stage::timed("cargo-tests", || {
@@ -146,6 +147,7 @@ fn test() -> Result<(), String> {
     let (room_passed, room_failed) = stage::timed("emulator-room", emulate::checks::room_run)?;
     let (matching_passed, matching_failed) =
         stage::timed("emulator-matching", emulate::checks::matching_run)?;
+    let (worlds_passed, worlds_failed) = stage::timed("firmware-worlds", firmware::worlds_run)?;
     let passed = cargo_passed
         + browser_passed
         + self_passed
@@ -154,7 +156,8 @@ fn test() -> Result<(), String> {
         + route_passed
         + reset_passed
         + room_passed
-        + matching_passed;
+        + matching_passed
+        + worlds_passed;
     let failed = cargo_failed
         + browser_failed
         + self_failed
@@ -163,7 +166,8 @@ fn test() -> Result<(), String> {
         + route_failed
         + reset_failed
         + room_failed
-        + matching_failed;
+        + matching_failed
+        + worlds_failed;
     println!("tests: {passed} passed, {failed} failed");
     if failed > 0 {
         return Err(format!("{failed} tests failed"));

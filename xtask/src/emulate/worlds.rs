@@ -25,7 +25,7 @@ pub struct WorldsArgs {
 /// Flies each world, prints its checks and a table, and fails if any check failed.
 pub fn run(args: &WorldsArgs) -> Result<(), String> {
     let worlds = if args.worlds.is_empty() {
-        shipped()
+        crate::firmware::shipped_worlds()
     } else {
         args.worlds.clone()
     };
@@ -54,16 +54,6 @@ pub fn run(args: &WorldsArgs) -> Result<(), String> {
         return Err(format!("{failed} checks failed"));
     }
     Ok(())
-}
-
-/// Every shipped scenario (`world::shipped::SHIPPED`, which a test holds to the
-/// directory), in the order listed there.
-fn shipped() -> Vec<PathBuf> {
-    let dir = world::shipped::directory();
-    world::shipped::SHIPPED
-        .iter()
-        .map(|name| dir.join(name))
-        .collect()
 }
 
 /// One world's flight, as the table shows it.

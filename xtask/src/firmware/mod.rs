@@ -150,6 +150,8 @@ impl FirmwareCargo {
             flip_link.display()
         );
         let mut cmd = toolchain.cargo(subcommand, &flip_link);
+        cmd.arg("--config")
+            .arg(toolchain::source_path_remaps(&root));
         cmd.args(args.cargo_args());
         if depth {
             for (var, value) in C_TOOLCHAIN_ENV {
@@ -220,6 +222,38 @@ pub fn run(args: &FirmwareArgs) -> Result<(), String> {
     println!();
     print!("{usage}");
     usage.check()
+}
+
+/// Every shipped scenario (`world::shipped::SHIPPED`, which a test holds to the
+/// directory), in the order listed there.
+pub fn shipped_worlds() -> Vec<PathBuf> {
+    let dir = world::shipped::directory();
+    world::shipped::SHIPPED
+        .iter()
+        .map(|name| dir.join(name))
+        .collect()
+}
+
+/// `cargo xtask test`'s check that the firmware builds for every shipped world within its
+/// flash and RAM budget (the grid, and so the RAM, is the world's): a test a world.
+/// Returns (passed, failed); leaves the firmware built for the last world.
+pub fn worlds_run() -> Result<(u64, u64), String> {
+    let (mut passed, mut failed) = (0, 0);
+    for world in shipped_worlds() {
+        let args = FirmwareArgs {
+            world: Some(world.clone()),
+            ..FirmwareArgs::default()
+        };
+        match run(&args) {
+            Ok(()) => passed += 1,
+            Err(e) => {
+                eprintln!("FAILED firmware for {}: {e}", world.display());
+                failed += 1;
+            }
+        }
+    }
+    println!("firmware for every shipped world: {passed} passed, {failed} failed");
+    Ok((passed, failed))
 }
 
 /// `cargo clippy --release -- -D warnings` on the firmware for its target, with whichever

@@ -162,6 +162,39 @@ impl Toolchain {
     }
 }
 
+/// `--config` for the firmware's build that strips the machine's own directories from the
+/// source paths compiled in (panic locations, debug info): the checkout's and cargo's
+/// registry sources become relative (`slam-core/src/pose.rs`, `embassy-rp-0.10.0/src/..`).
+/// The image then does not depend on where the project or `CARGO_HOME` lies, so its size
+/// is the same on every machine, and it is smaller by the prefixes.
+pub fn source_path_remaps(root: &Path) -> String {
+    let mut prefixes = vec![root.to_path_buf()];
+    let cargo_home = std::env::var_os("CARGO_HOME")
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cargo")));
+    if let Some(sources) = cargo_home.map(|h| h.join("registry").join("src")) {
+        if let Ok(entries) = std::fs::read_dir(&sources) {
+            let mut registries: Vec<PathBuf> = entries.flatten().map(|e| e.path()).collect();
+            registries.sort();
+            prefixes.extend(registries);
+        }
+    }
+    remap_config(&prefixes)
+}
+
+/// The `--config` value remapping each of `prefixes` to nothing; a directory whose name
+/// the TOML string or the flag cannot carry (a quote, a backslash, an `=`, a control
+/// character, or not UTF-8) is left as it is.
+fn remap_config(prefixes: &[PathBuf]) -> String {
+    let flags: Vec<String> = prefixes
+        .iter()
+        .filter_map(|p| p.to_str())
+        .filter(|p| !p.contains(['"', '\\', '=']) && !p.chars().any(char::is_control))
+        .map(|p| format!("\"--remap-path-prefix={}/=\"", p.trim_end_matches('/')))
+        .collect();
+    format!("target.{TARGET}.rustflags=[{}]", flags.join(", "))
+}
+
 /// `PATH` with `/usr/bin` first.
 fn debian_path() -> std::ffi::OsString {
     let rest = std::env::var_os("PATH").unwrap_or_default();
@@ -230,5 +263,26 @@ fn rustup_add_target() -> bool {
                 return false;
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn remaps_are_one_flag_a_directory_and_odd_names_are_left_out() {
+        let dirs = [
+            "/work/main",
+            "/root/.cargo/registry/src/index.crates.io-1949cf8c6b5b557f/",
+        ]
+        .map(PathBuf::from);
+        assert_eq!(
+            remap_config(&dirs),
+            "target.thumbv6m-none-eabi.rustflags=[\"--remap-path-prefix=/work/main/=\", \
+\"--remap-path-prefix=/root/.cargo/registry/src/index.crates.io-1949cf8c6b5b557f/=\"]"
+        );
+        let odd = ["/a\"b", "/a=b", "/a\\b", "/a\nb"].map(PathBuf::from);
+        assert_eq!(remap_config(&odd), "target.thumbv6m-none-eabi.rustflags=[]");
     }
 }
