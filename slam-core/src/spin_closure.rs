@@ -483,6 +483,26 @@ mod tests {
     use super::*;
 
     #[test]
+    fn a_scan_keeps_its_ranges_and_a_zero_reading_is_none() {
+        let ranges = [
+            Some(1),
+            None,
+            Some(4_000),
+            Some(u16::MAX),
+            None,
+            Some(0),
+            Some(7),
+            None,
+        ];
+        let scan = SpinScan::new(Angle::from_millidegrees(12_345), &ranges);
+        let mut want = ranges;
+        want[5] = None;
+        assert_eq!(scan.ranges_mm(), want);
+        assert_eq!(scan.heading, Angle::from_millidegrees(12_345));
+        assert_eq!(SpinScan::default().ranges_mm(), [None; BEAMS]);
+    }
+
+    #[test]
     fn exp_neg_is_within_two_percent_of_a_unit() {
         for i in 0..=1600 {
             let x = f64::from(i) / 100.0;
