@@ -25,14 +25,11 @@ mod tests {
 
     #[test]
     fn a_file_within_the_bound_is_read_whole_and_one_past_it_refused() {
-        let path = std::env::temp_dir().join(format!("bounded-{}", std::process::id()));
-        let _ = std::fs::write(&path, b"12345");
-        assert_eq!(
-            read(&path, 5).ok().flatten().as_deref(),
-            Some(&b"12345"[..])
-        );
-        assert_eq!(read(&path, 4).ok().map(|b| b.is_none()), Some(true));
-        let _ = std::fs::remove_file(&path);
+        let file = tempfile::NamedTempFile::with_prefix("bounded-").expect("temp file");
+        let path = file.path();
+        let _ = std::fs::write(path, b"12345");
+        assert_eq!(read(path, 5).ok().flatten().as_deref(), Some(&b"12345"[..]));
+        assert_eq!(read(path, 4).ok().map(|b| b.is_none()), Some(true));
     }
 
     #[test]

@@ -1076,31 +1076,24 @@ mod tests {
     use super::*;
     use crate::record::{MapSnapshot, WorldOutline};
     use std::fs::File;
-    use std::path::PathBuf;
+    use tempfile::TempDir;
 
     const N: usize = 46;
     const CELL: f64 = 50.0;
 
-    fn temp_dir(name: &str) -> PathBuf {
-        let nanos = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map(|d| d.as_nanos())
-            .unwrap_or(0);
-        let dir = std::env::temp_dir().join(format!(
-            "bugbot-picture-{name}-{}-{nanos}",
-            std::process::id()
-        ));
-        std::fs::create_dir_all(&dir).expect("temp dir");
-        dir
-    }
-
-    /// Removes a test's pictures, unless `BUGBOT_KEEP_PICTURES` is set (to look at them).
-    fn clean_up(dir: &Path) {
-        if std::env::var_os("BUGBOT_KEEP_PICTURES").is_some() {
-            eprintln!("pictures kept in {}", dir.display());
-        } else {
-            let _ = std::fs::remove_dir_all(dir);
+    /// A directory for a test's pictures, removed when the test ends, passed or failed,
+    /// unless `BUGBOT_KEEP_PICTURES` is set (to look at them).
+    fn temp_dir(name: &str) -> TempDir {
+        let keep = std::env::var_os("BUGBOT_KEEP_PICTURES").is_some();
+        let dir = tempfile::Builder::new()
+            .prefix(&format!("bugbot-picture-{name}-"))
+            .disable_cleanup(keep)
+            .tempdir()
+            .expect("temp dir");
+        if keep {
+            eprintln!("pictures kept in {}", dir.path().display());
         }
+        dir
     }
 
     /// A 46×46 map with a square ring of occupied cells (columns and rows 2 and 43), a
@@ -1193,7 +1186,8 @@ mod tests {
     #[test]
     fn pictures_of_a_synthetic_run() {
         let record = synthetic();
-        let dir = temp_dir("synthetic");
+        let tmp = temp_dir("synthetic");
+        let dir = tmp.path();
         let map = dir.join("map.png");
         let chart = dir.join("chart.png");
         let geometry = draw_map(&record, &map).expect("map");
@@ -1225,7 +1219,6 @@ mod tests {
 
         let img = decode(&chart);
         assert_eq!((img.0, img.1), CHART_SIZE);
-        clean_up(&dir);
     }
 
     #[test]
@@ -1251,7 +1244,8 @@ mod tests {
                 tags: slam_core::TagCounters::default().into(),
             });
         }
-        let dir = temp_dir("filter");
+        let tmp = temp_dir("filter");
+        let dir = tmp.path();
         let (map, chart) = (dir.join("map.png"), dir.join("chart.png"));
         let geometry = draw_map(&record, &map).expect("map");
         chart_png(&record, &chart).expect("chart");
@@ -1272,12 +1266,12 @@ mod tests {
         record.ticks.iter_mut().for_each(|t| t.belief = None);
         chart_png(&record, &chart).expect("chart");
         assert_eq!(decode(&chart).1, CHART_SIZE.1);
-        clean_up(&dir);
     }
 
     #[test]
     fn a_grid_larger_than_its_world_is_framed_to_the_world() {
-        let dir = temp_dir("framed");
+        let tmp = temp_dir("framed");
+        let dir = tmp.path();
         let mut record = synthetic();
         const BIG: usize = 206;
         record.map.width = BIG;
@@ -1294,7 +1288,6 @@ mod tests {
         record.world = WorldOutline::default();
         let g = draw_map(&record, &dir.join("grid.png")).expect("map");
         assert!(g.x.start <= -3000.0 && g.x.end >= 7300.0, "{:?}", g.x);
-        clean_up(&dir);
     }
 
     #[test]
@@ -1303,7 +1296,8 @@ mod tests {
         record.ticks.clear();
         record.map.cells = vec![CellBelief::Unknown; N * N];
         record.map.out_of_place.clear();
-        let dir = temp_dir("empty");
+        let tmp = temp_dir("empty");
+        let dir = tmp.path();
         map_png(&record, &dir.join("map.png")).expect("map");
         chart_png(&record, &dir.join("chart.png")).expect("chart");
         assert!(dir.join("map.png").is_file() && dir.join("chart.png").is_file());
@@ -1328,7 +1322,6 @@ mod tests {
         map_png(&bare, &dir.join("bare-map.png")).expect("bare map");
         chart_png(&bare, &dir.join("bare-chart.png")).expect("bare chart");
         assert_eq!(decode(&dir.join("bare-map.png")).0, MAP_SIZE.0);
-        clean_up(&dir);
     }
 
     #[test]
@@ -1346,7 +1339,8 @@ mod tests {
         // Cells fewer than width × height, and a mask longer than the cells.
         record.map.cells.truncate(100);
         record.map.out_of_place = vec![true; 5000];
-        let dir = temp_dir("extreme");
+        let tmp = temp_dir("extreme");
+        let dir = tmp.path();
         map_png(&record, &dir.join("map.png")).expect("map");
         chart_png(&record, &dir.join("chart.png")).expect("chart");
 
@@ -1355,16 +1349,15 @@ mod tests {
         record.map.cell_mm = -5.0;
         map_png(&record, &dir.join("one-map.png")).expect("one map");
         chart_png(&record, &dir.join("one-chart.png")).expect("one chart");
-        clean_up(&dir);
     }
 
     #[test]
     fn unwritable_path_is_an_error() {
         let record = synthetic();
-        let dir = temp_dir("missing");
+        let tmp = temp_dir("missing");
+        let dir = tmp.path();
         let path = dir.join("no-such-dir").join("map.png");
         let err = map_png(&record, &path).expect_err("should fail");
-        let _ = std::fs::remove_dir_all(&dir);
         assert!(matches!(err, PictureError::Io(_)), "{err}");
         assert!(err.to_string().contains("writing"));
     }

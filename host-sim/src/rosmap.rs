@@ -152,7 +152,8 @@ mod tests {
     fn an_empty_map_is_refused() {
         let mut m = map();
         m.cells.clear();
-        let dir = std::env::temp_dir().join(format!("rosmap-empty-{}", std::process::id()));
+        let tmp = tempfile::TempDir::with_prefix("rosmap-empty-").expect("temp dir");
+        let dir = tmp.path().join("map");
         assert!(matches!(write(&m, &dir), Err(ExportError::Empty)));
         assert!(
             !dir.exists(),

@@ -6,12 +6,11 @@ mod common;
 
 use common::{host_sim, seed_path};
 use std::net::TcpListener;
-use std::path::PathBuf;
+use tempfile::TempDir;
 
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("host-sim-live-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).ok();
-    dir.join(name)
+/// A directory for a test's files, removed when the test ends, passed or failed.
+fn scratch() -> TempDir {
+    TempDir::with_prefix("host-sim-live-cli-").expect("scratch dir")
 }
 
 fn seed() -> String {
@@ -94,7 +93,8 @@ fn speeds_out_of_range_and_live_options_without_live_are_refused() {
 
 #[test]
 fn an_mcap_file_that_cannot_be_written_is_named() {
-    let path = scratch("no-such-dir").join("run.mcap");
+    let dir = scratch();
+    let path = dir.path().join("no-such-dir").join("run.mcap");
     let path = path.to_str().unwrap_or_default();
     let out = host_sim(&["run", &seed(), "--mcap", path]);
     let err = String::from_utf8_lossy(&out.stderr);
@@ -104,12 +104,13 @@ fn an_mcap_file_that_cannot_be_written_is_named() {
 
 #[test]
 fn garbage_ends_the_session_cleanly() {
-    let garbage = scratch("garbage.bin");
+    let dir = scratch();
+    let garbage = dir.path().join("garbage.bin");
     let bytes: Vec<u8> = (0..20_000u32)
         .map(|i| (i.wrapping_mul(2_654_435_761) >> 13) as u8)
         .collect();
     std::fs::write(&garbage, bytes).expect("garbage written");
-    let mcap = scratch("garbage.mcap");
+    let mcap = dir.path().join("garbage.mcap");
     let out = host_sim(&[
         "view",
         garbage.to_str().unwrap_or_default(),
@@ -139,7 +140,8 @@ fn garbage_ends_the_session_cleanly() {
 
 #[test]
 fn a_stream_cut_short_plays_to_its_end_with_the_usual_summary() {
-    let telemetry = scratch("seed.bin");
+    let dir = scratch();
+    let telemetry = dir.path().join("seed.bin");
     let out = host_sim(&[
         "run",
         &seed(),
@@ -148,9 +150,9 @@ fn a_stream_cut_short_plays_to_its_end_with_the_usual_summary() {
     ]);
     assert!(out.status.success());
     let bytes = std::fs::read(&telemetry).expect("the stream");
-    let cut = scratch("cut.bin");
+    let cut = dir.path().join("cut.bin");
     std::fs::write(&cut, &bytes[..bytes.len() / 2 + 7]).expect("cut written");
-    let mcap = scratch("cut.mcap");
+    let mcap = dir.path().join("cut.mcap");
     let out = host_sim(&[
         "view",
         cut.to_str().unwrap_or_default(),

@@ -7,12 +7,11 @@ mod common;
 use common::{host_sim, seed_path};
 use foxglove::messages::{log::Level, Log};
 use foxglove::Decode;
-use std::path::PathBuf;
+use tempfile::TempDir;
 
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("host-sim-mcap-log-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).ok();
-    dir.join(name)
+/// A directory for a test's files, removed when the test ends, passed or failed.
+fn scratch() -> TempDir {
+    TempDir::with_prefix("host-sim-mcap-log-").expect("scratch dir")
 }
 
 fn text(path: &std::path::Path) -> &str {
@@ -28,10 +27,11 @@ enum Seen {
 
 #[test]
 fn the_firmware_log_goes_out_on_log_in_time_order_with_the_ticks() {
+    let dir = scratch();
     let (stream, log, mcap) = (
-        scratch("seed.bin"),
-        scratch("robot.log"),
-        scratch("log.mcap"),
+        dir.path().join("seed.bin"),
+        dir.path().join("robot.log"),
+        dir.path().join("log.mcap"),
     );
     let run = host_sim(&["run", text(&seed_path()), "--telemetry", text(&stream)]);
     assert!(
@@ -155,20 +155,21 @@ fn the_firmware_log_goes_out_on_log_in_time_order_with_the_ticks() {
 
 #[test]
 fn log_without_live_or_mcap_is_refused_and_a_missing_log_named() {
-    let stream = scratch("refused.bin");
+    let dir = scratch();
+    let stream = dir.path().join("refused.bin");
     let run = host_sim(&["run", text(&seed_path()), "--telemetry", text(&stream)]);
     assert!(run.status.success());
     let out = host_sim(&["view", text(&stream), "--log", "/dev/null"]);
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--live or --mcap"));
-    let missing = scratch("no-such.log");
+    let missing = dir.path().join("no-such.log");
     let out = host_sim(&[
         "view",
         text(&stream),
         "--log",
         text(&missing),
         "--mcap",
-        text(&scratch("refused.mcap")),
+        text(&dir.path().join("refused.mcap")),
     ]);
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("no-such.log"));

@@ -12,12 +12,12 @@ use host_sim::record::CellBelief;
 use host_sim::telemetry::decode_bytes;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
+use tempfile::TempDir;
 use wire::telemetry::{Hello, Message, StreamDecoder};
 
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("host-sim-mcap-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).ok();
-    dir.join(name)
+/// A directory for a test's files, removed when the test ends, passed or failed.
+fn scratch() -> TempDir {
+    TempDir::with_prefix("host-sim-mcap-").expect("scratch dir")
 }
 
 fn read(path: &PathBuf) -> Vec<u8> {
@@ -71,7 +71,8 @@ fn stream(bytes: &[u8]) -> Stream {
 
 #[test]
 fn the_mcap_holds_every_channel_and_ends_with_the_streams_map() {
-    let (mcap_path, telemetry_path) = (scratch("seed.mcap"), scratch("seed.bin"));
+    let dir = scratch();
+    let (mcap_path, telemetry_path) = (dir.path().join("seed.mcap"), dir.path().join("seed.bin"));
     let out = host_sim(&[
         "run",
         seed_path().to_str().unwrap_or_default(),
@@ -221,7 +222,7 @@ fn the_mcap_holds_every_channel_and_ends_with_the_streams_map() {
         .collect();
     assert_eq!(beliefs, decode_bytes(&telemetry).recorder.beliefs());
     // `view` of the same stream records the same final map.
-    let viewed = scratch("viewed.mcap");
+    let viewed = dir.path().join("viewed.mcap");
     let out = host_sim(&[
         "view",
         telemetry_path.to_str().unwrap_or_default(),

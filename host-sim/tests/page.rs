@@ -184,7 +184,6 @@ fn the_state_after_a_recorded_run_is_its_map_paths_and_figures() {
     // What the server says over HTTP is what it holds.
     let held: Value = serde_json::from_str(&server.state_json()).expect("JSON");
     assert_eq!(held, s);
-    let _ = std::fs::remove_dir_all(&run.dir);
 }
 
 fn tick(n: u32) -> Message {

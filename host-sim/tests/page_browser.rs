@@ -121,7 +121,11 @@ fn save(dir: &Path, name: &str, bytes: &[u8]) {
 #[test]
 #[ignore = "needs Chromium: `cargo xtask test` installs it and runs this"]
 fn the_page_draws_the_runs_map_in_a_real_browser() {
-    let run = record_seed_run("browser");
+    let mut run = record_seed_run("browser");
+    // BUGBOT_KEEP_PICTURES keeps the screenshots and the PNG to look at, as the
+    // pictures' own tests do.
+    run.dir
+        .disable_cleanup(std::env::var_os("BUGBOT_KEEP_PICTURES").is_some());
     let final_tick = run.final_tick();
     let truth = run.truth();
     let mut server = PageServer::bind("127.0.0.1:0".parse().expect("address")).expect("bind");
@@ -210,7 +214,7 @@ fn the_page_draws_the_runs_map_in_a_real_browser() {
 
     // With the paths and tags: the estimate ends at its pose, the tags are drawn.
     let full_png = page.screenshot().expect("screenshot");
-    save(&run.dir, "page.png", &full_png);
+    save(run.dir.path(), "page.png", &full_png);
     let full = Image::decode(&full_png);
     assert_eq!((full.width, full.height), WINDOW, "screenshot size");
     let grid = run.output.record.map.clone();
@@ -241,14 +245,14 @@ fn the_page_draws_the_runs_map_in_a_real_browser() {
         .expect("switch");
     page.settle().expect("painted");
     let shot_png = page.screenshot().expect("screenshot");
-    save(&run.dir, "page-map.png", &shot_png);
+    save(run.dir.path(), "page-map.png", &shot_png);
     let shot = Image::decode(&shot_png);
 
     // The PNG map of the same run, its cells alone (no paths, walls or tags over them).
     let mut cells_only = run.output.record.clone();
     cells_only.ticks.clear();
     cells_only.world = WorldOutline::default();
-    let png_path = run.dir.join("run-map.png");
+    let png_path = run.dir.path().join("run-map.png");
     map_png(&cells_only, &png_path).expect("PNG map");
     let reference = Image::decode(&std::fs::read(&png_path).expect("PNG map read"));
     let (x0, y0, x1, y1) = png_grid_box(&reference);
@@ -279,7 +283,7 @@ fn the_page_draws_the_runs_map_in_a_real_browser() {
         counts[1],
         counts[2],
         disagreements.len(),
-        run.dir.display()
+        run.dir.path().display()
     );
     assert!(
         counts[1] > 100 && counts[2] > 50,
@@ -292,13 +296,6 @@ fn the_page_draws_the_runs_map_in_a_real_browser() {
         disagreements.is_empty(),
         "cells that disagree (column, row, page, PNG, run): {disagreements:?}"
     );
-    drop(page);
-    drop(chromium);
-    // BUGBOT_KEEP_PICTURES keeps the screenshots and the PNG to look at, as the
-    // pictures' own tests do.
-    if std::env::var_os("BUGBOT_KEEP_PICTURES").is_none() {
-        let _ = std::fs::remove_dir_all(&run.dir);
-    }
 }
 
 /// The belief a synthetic map gives cell `column`, `row`: a pattern that tells rows,

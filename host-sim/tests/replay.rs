@@ -11,6 +11,7 @@ use host_sim::run::run_with_telemetry;
 use host_sim::telemetry::{decode_bytes, TelemetryWriter};
 use host_sim::{PoseMode, Scenario};
 use std::path::PathBuf;
+use tempfile::TempDir;
 use wire::telemetry::{encode, Message, StreamDecoder, Tick, MAX_FRAME_LEN};
 
 fn seed() -> Scenario {
@@ -55,11 +56,14 @@ fn ticks(bytes: &[u8]) -> Vec<Tick> {
         .collect()
 }
 
-/// A scratch file holding `bytes`, unique to this test.
-fn scratch(name: &str, bytes: &[u8]) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("host-sim-replay-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).ok();
-    let path = dir.join(name);
+/// A directory for a test's files, removed when the test ends, passed or failed.
+fn scratch_dir() -> TempDir {
+    TempDir::with_prefix("host-sim-replay-").expect("scratch dir")
+}
+
+/// A file in `dir` holding `bytes`.
+fn scratch(dir: &TempDir, name: &str, bytes: &[u8]) -> PathBuf {
+    let path = dir.path().join(name);
     if let Err(e) = std::fs::write(&path, bytes) {
         panic!("cannot write {}: {e}", path.display());
     }
@@ -119,7 +123,8 @@ fn another_localiser_replays_to_its_own_run() {
     assert_eq!(a.recorder.beliefs(), z.recorder.beliefs());
 
     // And through the command line: the figures `run --pose dead-reckoning` gives.
-    let path = scratch("slam.bin", &from_slam);
+    let dir = scratch_dir();
+    let path = scratch(&dir, "slam.bin", &from_slam);
     let out = host_sim(&[
         "replay",
         &path.to_string_lossy(),
@@ -153,7 +158,8 @@ fn another_localiser_replays_to_its_own_run() {
 
 #[test]
 fn the_command_line_reports_bit_for_bit() {
-    let path = scratch("tags.bin", &recorded(&seed(), PoseMode::Tags));
+    let dir = scratch_dir();
+    let path = scratch(&dir, "tags.bin", &recorded(&seed(), PoseMode::Tags));
     let out = host_sim(&["replay", &path.to_string_lossy(), "--json"]);
     assert!(
         out.status.success(),
@@ -184,7 +190,8 @@ fn a_stream_without_inputs_is_a_clear_error() {
         replay(&seed(), &bytes, None),
         Err(ReplayError::NoInputs { frames_ok }) if frames_ok > 0
     ));
-    let path = scratch("no-inputs.bin", &bytes);
+    let dir = scratch_dir();
+    let path = scratch(&dir, "no-inputs.bin", &bytes);
     let out = host_sim(&["replay", &path.to_string_lossy()]);
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
@@ -231,7 +238,8 @@ fn a_stream_that_lies_is_reported_not_a_panic() {
         d.as_ref().map(|d| (d.tick, d.field.as_str())),
         Some((100, "inputs"))
     );
-    let path = scratch("lost.bin", &framed(&lost));
+    let dir = scratch_dir();
+    let path = scratch(&dir, "lost.bin", &framed(&lost));
     let out = host_sim(&["replay", &path.to_string_lossy()]);
     assert_eq!(out.status.code(), Some(3), "a replay that differs fails");
     let text = String::from_utf8_lossy(&out.stdout);

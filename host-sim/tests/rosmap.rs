@@ -8,11 +8,12 @@ mod common;
 use common::{host_sim, seed_path};
 use host_sim::record::{CellBelief, MapSnapshot};
 use host_sim::{run, PoseMode, Scenario};
-use std::path::{Path, PathBuf};
+use std::path::Path;
+use tempfile::TempDir;
 
-/// A scratch directory unique to this test run and `name`.
-fn scratch(name: &str) -> PathBuf {
-    std::env::temp_dir().join(format!("host-sim-rosmap-{}-{name}", std::process::id()))
+/// A directory for a test's files, removed when the test ends, passed or failed.
+fn scratch() -> TempDir {
+    TempDir::with_prefix("host-sim-rosmap-").expect("scratch dir")
 }
 
 /// What a map server makes of `DIR/map.yaml` and the image it names.
@@ -122,7 +123,8 @@ fn seed_map(mode: PoseMode) -> MapSnapshot {
 
 #[test]
 fn run_exports_its_final_map_as_a_map_server_pair() {
-    let dir = scratch("run");
+    let tmp = scratch();
+    let dir = tmp.path().join("run");
     let seed = seed_path();
     succeed(&[
         "run",
@@ -137,13 +139,13 @@ fn run_exports_its_final_map_as_a_map_server_pair() {
     // Not a blank page: the walls and the free floor are there.
     let count = |c| loaded.cells.iter().filter(|&&x| x == c).count();
     assert!(count(CellBelief::Occupied) > 100 && count(CellBelief::Free) > 1000);
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn view_exports_the_robots_map_from_its_telemetry() {
-    let dir = scratch("view");
-    let stream = scratch("stream.bin");
+    let tmp = scratch();
+    let dir = tmp.path().join("view");
+    let stream = tmp.path().join("stream.bin");
     let seed = seed_path();
     succeed(&[
         "run",
@@ -160,14 +162,13 @@ fn view_exports_the_robots_map_from_its_telemetry() {
         dir.to_str().unwrap_or_default(),
     ]);
     assert_same(&load(&dir), &seed_map(PoseMode::Slam));
-    let _ = std::fs::remove_dir_all(&dir);
-    let _ = std::fs::remove_file(&stream);
 }
 
 #[test]
 fn an_export_that_cannot_be_written_says_where() {
     // A file where the directory should be.
-    let blocker = scratch("blocker");
+    let tmp = scratch();
+    let blocker = tmp.path().join("blocker");
     let _ = std::fs::write(&blocker, b"not a directory");
     let seed = seed_path();
     let out = host_sim(&[
@@ -182,5 +183,4 @@ fn an_export_that_cannot_be_written_says_where() {
         err.contains("cannot create") && err.contains("blocker"),
         "{err}"
     );
-    let _ = std::fs::remove_file(&blocker);
 }

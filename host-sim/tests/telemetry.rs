@@ -8,13 +8,11 @@ use host_sim::run::{run, PoseMode, RunOutput};
 use host_sim::telemetry::decode_bytes;
 use host_sim::Scenario;
 use std::path::{Path, PathBuf};
+use tempfile::TempDir;
 
-/// A scratch directory unique to this test.
-fn scratch(name: &str) -> PathBuf {
-    let dir =
-        std::env::temp_dir().join(format!("host-sim-telemetry-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).ok();
-    dir
+/// A directory for a test's files, removed when the test ends, passed or failed.
+fn scratch(name: &str) -> TempDir {
+    TempDir::with_prefix(format!("host-sim-telemetry-{name}-")).expect("scratch dir")
 }
 
 fn path_str(p: &Path) -> &str {
@@ -44,8 +42,9 @@ fn recorded_stream(dir: &Path) -> Vec<u8> {
 
 #[test]
 fn the_viewer_gets_the_run_back() {
-    let dir = scratch("roundtrip");
-    let bytes = recorded_stream(&dir);
+    let tmp = scratch("roundtrip");
+    let dir = tmp.path();
+    let bytes = recorded_stream(dir);
     assert!(!bytes.is_empty(), "no stream written");
 
     // The same run in the library, for the figures to hold the stream to.
@@ -149,13 +148,13 @@ fn the_viewer_gets_the_run_back() {
         .collect();
     assert_eq!(times.len(), run_ticks, "{}", ticks.len());
     assert!(times.windows(2).all(|w| w[0] < w[1]), "{times:?}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn garbage_in_the_stream_costs_only_its_own_frames() {
-    let dir = scratch("garbage");
-    let bytes = recorded_stream(&dir);
+    let tmp = scratch("garbage");
+    let dir = tmp.path();
+    let bytes = recorded_stream(dir);
     let clean = decode_bytes(&bytes);
     let clean_frames = clean.decoder.stats().frames_ok;
 
@@ -191,7 +190,7 @@ fn garbage_in_the_stream_costs_only_its_own_frames() {
     // The CLI reads it too, reports the bad frames and still draws.
     let file = dir.join("dirty.bin");
     std::fs::write(&file, &dirty).ok();
-    let out = host_sim(&["view", path_str(&file), "--out", path_str(&dir)]);
+    let out = host_sim(&["view", path_str(&file), "--out", path_str(dir)]);
     let text = String::from_utf8_lossy(&out.stdout);
     assert_eq!(
         out.status.code(),
@@ -201,12 +200,12 @@ fn garbage_in_the_stream_costs_only_its_own_frames() {
     );
     assert!(text.contains(&format!("{} bad", flipped + noisy)), "{text}");
     assert!(dir.join("dirty-map.png").is_file());
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn bad_input_is_refused_cleanly() {
-    let dir = scratch("bad");
+    let tmp = scratch("bad");
+    let dir = tmp.path();
     let junk = dir.join("junk.bin");
     let noise: Vec<u8> = (0..20_000u32)
         .map(|i| (i.wrapping_mul(2_654_435_761) >> 13) as u8)
@@ -237,7 +236,6 @@ fn bad_input_is_refused_cleanly() {
         assert!(err.contains(what), "{args:?}: {err}");
         assert!(!err.contains("panicked"), "{args:?}: {err}");
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -300,10 +298,11 @@ fn view_json(args: &[&str]) -> serde_json::Value {
 
 #[test]
 fn view_with_the_truth_scores_a_run_as_run_does() {
-    let dir = scratch("truth");
-    recorded_stream(&dir);
+    let tmp = scratch("truth");
+    let dir = tmp.path();
+    recorded_stream(dir);
     let stream = dir.join("seed.bin");
-    let (output, truth, lines) = seed_run_with_truth(&dir, PoseMode::Tags);
+    let (output, truth, lines) = seed_run_with_truth(dir, PoseMode::Tags);
 
     let v = view_json(&[
         "view",
@@ -352,13 +351,13 @@ fn view_with_the_truth_scores_a_run_as_run_does() {
     // Without --truth, no pose score at all.
     let v = view_json(&["view", path_str(&stream), "--json"]);
     assert!(v.get("max_error_cm").is_none(), "{v}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn a_bad_truth_file_is_refused_naming_the_line() {
-    let dir = scratch("badtruth");
-    recorded_stream(&dir);
+    let tmp = scratch("badtruth");
+    let dir = tmp.path();
+    recorded_stream(dir);
     let stream = dir.join("seed.bin");
     let good = "{\"t_s\":0.1,\"x_mm\":700,\"y_mm\":500,\"heading_deg\":0}";
     let truth = dir.join("truth.jsonl");
@@ -394,7 +393,6 @@ fn a_bad_truth_file_is_refused_naming_the_line() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("cannot read truth file"));
     let out = host_sim(&["view", path_str(&stream), "--scenario", "/nonexistent.toml"]);
     assert_eq!(out.status.code(), Some(2));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Whether `a` and `b` have the same shape and values, numbers within 1e-9 of each other.
@@ -418,7 +416,8 @@ fn same_json(a: &serde_json::Value, b: &serde_json::Value) -> bool {
 fn the_filters_figures_survive_the_telemetry() {
     // `run --pose filter` (the firmware's) and `view --truth --scenario` of its stream give the same
     // `estimator` object: covariance, calibration and tags travel whole.
-    let dir = scratch("slam");
+    let tmp = scratch("slam");
+    let dir = tmp.path();
     let stream = dir.join("slam.bin");
     let out = host_sim(&[
         "run",
@@ -431,7 +430,7 @@ fn the_filters_figures_survive_the_telemetry() {
     ]);
     assert_eq!(out.status.code(), Some(0));
     let sim: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_default();
-    let (_, truth, _) = seed_run_with_truth(&dir, PoseMode::Filter);
+    let (_, truth, _) = seed_run_with_truth(dir, PoseMode::Filter);
     let v = view_json(&[
         "view",
         path_str(&stream),
@@ -441,7 +440,7 @@ fn the_filters_figures_survive_the_telemetry() {
         path_str(&seed_path()),
         "--json",
         "--out",
-        path_str(&dir),
+        path_str(dir),
     ]);
     assert_eq!(v["localiser"], "filter", "{v}");
     assert_eq!(v["filters_unmatched"], 0, "{v}");
@@ -451,5 +450,4 @@ fn the_filters_figures_survive_the_telemetry() {
     // the last digits.
     assert!(same_json(e, s), "view {e}\nrun {s}");
     assert!(dir.join("slam-chart.png").is_file());
-    let _ = std::fs::remove_dir_all(&dir);
 }

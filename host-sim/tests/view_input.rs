@@ -11,13 +11,17 @@ use host_sim::telemetry::{decode_bytes, TelemetryRecorder, MAX_GRID_SIDE};
 use slam_core::{Counters, FixOutcome};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
+use tempfile::TempDir;
 use wire::telemetry::{encode, CellChunk, Hello, MapRows, Message, Tick, MAX_FRAME_LEN};
 
-/// A scratch file holding `bytes`, unique to this test.
-fn scratch(name: &str, bytes: &[u8]) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("host-sim-view-input-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).ok();
-    let path = dir.join(name);
+/// A directory for a test's files, removed when the test ends, passed or failed.
+fn scratch_dir() -> TempDir {
+    TempDir::with_prefix("host-sim-view-input-").expect("scratch dir")
+}
+
+/// A file in `dir` holding `bytes`.
+fn scratch(dir: &TempDir, name: &str, bytes: &[u8]) -> PathBuf {
+    let path = dir.path().join(name);
     if let Err(e) = std::fs::write(&path, bytes) {
         panic!("cannot write {}: {e}", path.display());
     }
@@ -64,7 +68,8 @@ fn view_json(path: &std::path::Path) -> (serde_json::Value, Duration) {
 fn a_hello_claiming_a_huge_grid_is_refused_fast() {
     let huge = frame(&Message::Hello(hello(u16::MAX, u16::MAX)));
     assert!(huge.len() <= 50, "{} bytes", huge.len());
-    let one = scratch("one-hello.bin", &huge);
+    let dir = scratch_dir();
+    let one = scratch(&dir, "one-hello.bin", &huge);
     let (json, took) = view_json(&one);
     assert!(took < Duration::from_secs(5), "took {took:?}");
     assert_eq!(json["hellos_refused"]["count"].as_u64(), Some(1), "{json}");
@@ -81,7 +86,7 @@ fn a_hello_claiming_a_huge_grid_is_refused_fast() {
         fifty.extend(&huge);
         fifty.extend(frame(&tick(i + 1)));
     }
-    let many = scratch("fifty-hellos.bin", &fifty);
+    let many = scratch(&dir, "fifty-hellos.bin", &fifty);
     let (json, took) = view_json(&many);
     assert!(took < Duration::from_secs(5), "took {took:?}");
     assert_eq!(json["hellos_refused"]["count"].as_u64(), Some(50), "{json}");
@@ -174,7 +179,8 @@ fn the_known_share_follows_the_chunks_without_rescanning_the_map() {
 
 #[test]
 fn a_truth_that_matches_no_tick_scores_nothing() {
-    let stream = scratch("seed.bin", b"");
+    let dir = scratch_dir();
+    let stream = scratch(&dir, "seed.bin", b"");
     let out = host_sim(&[
         "run",
         seed_path().to_str().unwrap_or_default(),
@@ -205,7 +211,11 @@ fn a_truth_that_matches_no_tick_scores_nothing() {
         String::from_utf8_lossy(&out.stdout).into_owned()
     };
     // Long after the run ends: no tick has a sample near it.
-    let late = scratch("late.jsonl", (sample(5000.0) + &sample(5000.1)).as_bytes());
+    let late = scratch(
+        &dir,
+        "late.jsonl",
+        (sample(5000.0) + &sample(5000.1)).as_bytes(),
+    );
     let text = view(&late, false);
     assert!(text.contains("nothing to score against"), "{text}");
     assert!(!text.contains("final error 0.0 cm"), "{text}");
@@ -224,7 +234,7 @@ fn a_truth_that_matches_no_tick_scores_nothing() {
         );
     }
     // A matching sample scores, under the same keys.
-    let early = scratch("early.jsonl", (sample(0.0) + &sample(0.1)).as_bytes());
+    let early = scratch(&dir, "early.jsonl", (sample(0.0) + &sample(0.1)).as_bytes());
     let scored: serde_json::Value = serde_json::from_str(&view(&early, true)).unwrap_or_default();
     let keys = |v: &serde_json::Value| {
         v.as_object()

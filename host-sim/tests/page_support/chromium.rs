@@ -5,11 +5,10 @@
 use serde_json::{json, Value};
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::TcpStream;
-use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
+use tempfile::TempDir;
 use tungstenite::{Message as WsMessage, WebSocket};
 
 /// The page's viewport, CSS pixels at one device pixel each: the page's map (at most
@@ -26,7 +25,7 @@ pub fn program() -> String {
 /// A running headless Chromium, killed (and its profile removed) on drop.
 pub struct Chromium {
     child: Child,
-    profile: PathBuf,
+    profile: TempDir,
     /// `127.0.0.1:PORT` of its DevTools endpoint.
     devtools: String,
 }
@@ -35,14 +34,8 @@ impl Chromium {
     /// Starts the browser with a fresh profile; an error says why it could not.
     pub fn launch() -> Result<Chromium, String> {
         // A profile of its own: two browsers on one profile refuse to start.
-        static LAUNCHED: AtomicUsize = AtomicUsize::new(0);
-        let profile = std::env::temp_dir().join(format!(
-            "host-sim-page-chromium-{}-{}",
-            std::process::id(),
-            LAUNCHED.fetch_add(1, Ordering::Relaxed)
-        ));
-        let _ = std::fs::remove_dir_all(&profile);
-        std::fs::create_dir_all(&profile).map_err(|e| format!("profile dir: {e}"))?;
+        let profile = TempDir::with_prefix("host-sim-page-chromium-")
+            .map_err(|e| format!("profile dir: {e}"))?;
         let program = program();
         let mut child = Command::new(&program)
             .args([
@@ -59,9 +52,12 @@ impl Chromium {
                 "--remote-debugging-address=127.0.0.1",
                 "--remote-debugging-port=0",
             ])
-            .arg(format!("--user-data-dir={}", profile.display()))
+            .arg(format!("--user-data-dir={}", profile.path().display()))
             .arg(format!("--window-size={},{}", WINDOW.0, WINDOW.1))
             .arg("about:blank")
+            // Its own temporary files (the profile's lock socket) in the profile too, to go
+            // with it: a killed browser leaves them behind.
+            .env("TMPDIR", profile.path())
             .stdin(Stdio::null())
             .stdout(Stdio::null())
             .stderr(Stdio::piped())
@@ -86,7 +82,6 @@ impl Chromium {
             Err(_) => {
                 let _ = child.kill();
                 let status = child.wait().map(|s| s.to_string()).unwrap_or_default();
-                let _ = std::fs::remove_dir_all(&profile);
                 return Err(format!(
                     "{program} did not open its DevTools endpoint within {PATIENCE:?} ({status})"
                 ));
@@ -164,9 +159,10 @@ impl Drop for Chromium {
         let _ = self.child.kill();
         let _ = self.child.wait();
         // Its helper processes notice and exit a moment later, and may write to the
-        // profile until then.
+        // profile until then: the `TempDir`'s own single try may come too soon.
+        let profile = self.profile.path();
         for _ in 0..20 {
-            if std::fs::remove_dir_all(&self.profile).is_ok() || !self.profile.exists() {
+            if std::fs::remove_dir_all(profile).is_ok() || !profile.exists() {
                 break;
             }
             std::thread::sleep(Duration::from_millis(100));

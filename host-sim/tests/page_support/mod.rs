@@ -10,6 +10,7 @@ use host_sim::Scenario;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Duration;
+use tempfile::TempDir;
 use wire::telemetry::{Message, StreamDecoder};
 
 /// A recorded run: its telemetry as `host-sim run --telemetry` wrote it, and the same
@@ -19,8 +20,8 @@ pub struct RecordedRun {
     pub messages: Vec<Message>,
     /// The run itself.
     pub output: RunOutput,
-    /// A scratch directory for the test's files.
-    pub dir: PathBuf,
+    /// A scratch directory for the test's files, removed when the run is dropped.
+    pub dir: TempDir,
 }
 
 impl RecordedRun {
@@ -42,12 +43,9 @@ impl RecordedRun {
     }
 }
 
-/// A scratch directory unique to this test.
-pub fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("host-sim-page-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("scratch dir");
-    dir
+/// A directory for a test's files, removed when the test ends, passed or failed.
+pub fn scratch(name: &str) -> TempDir {
+    TempDir::with_prefix(format!("host-sim-page-{name}-")).expect("scratch dir")
 }
 
 fn seed_path() -> PathBuf {
@@ -58,7 +56,7 @@ fn seed_path() -> PathBuf {
 /// same run in the library.
 pub fn record_seed_run(name: &str) -> RecordedRun {
     let dir = scratch(name);
-    let file = dir.join("seed-slam.bin");
+    let file = dir.path().join("seed-slam.bin");
     let out = Command::new(env!("CARGO_BIN_EXE_host-sim"))
         .arg("run")
         .arg(seed_path())
