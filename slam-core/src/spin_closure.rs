@@ -93,6 +93,16 @@ impl Closure {
     }
 }
 
+/// What the filter believed of a turn's excess before its closure was measured.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Prior {
+    /// The excess its heading implies, millidegrees, over the turn the closure measures.
+    pub excess_mdeg: i32,
+    /// Its deviation, millidegrees.
+    pub sd_mdeg: i32,
+}
+
 /// Why a turn's closure was not measured.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -298,12 +308,16 @@ impl Search {
         true
     }
 
+    /// The turn from the first scan to the last, millidegrees, as the gyro integrated it:
+    /// what the closure's excess is measured over (0 before [`Search::start`]).
+    pub fn turn_mdeg(&self) -> i32 {
+        self.total
+    }
+
     /// The closure the slides found: the best, refined between its neighbours, and how
     /// sure it is.
     pub fn finish(&self) -> Result<Closure, ClosureRefusal> {
-        let (sums, counts) = (&self.sums, &self.counts);
-        let judged =
-            |k: usize| (counts[k] >= MIN_COMPARED).then(|| (i64::from(sums[k]), counts[k]));
+        let judged = |k: usize| self.judged(k);
         // The best slide: the least mean cost (compared as cross products, no division).
         let mut best: Option<usize> = None;
         for k in 0..STEPS {
@@ -319,7 +333,7 @@ impl Search {
         if k == 0 || k == STEPS - 1 {
             return Err(ClosureRefusal::NoClosure);
         }
-        let mean = |k: usize| judged(k).map(|(s, n)| s * 256 / i64::from(n));
+        let mean = |k: usize| self.mean(k);
         let slide = k as i32 * SLIDE_MDEG - MAX_EXCESS_MDEG;
         // The parabola through the best and its neighbours, where both are judged: its
         // vertex refines the slide.
@@ -331,15 +345,107 @@ impl Search {
             }
             _ => slide,
         };
-        let sd_mdeg = spread_mdeg(&mean, STEPS, counts[k]);
+        let compared = self.counts.get(k).copied().unwrap_or(0);
+        let (_, var) = self.weighed(compared, None);
         Ok(Closure {
             excess_mdeg: refined,
             turn_mdeg: self.total,
-            compared: counts[k],
-            sd_mdeg,
+            compared,
+            sd_mdeg: root(var.max(LEAST_VAR)),
         })
     }
+
+    /// What the slides add to the filter's `prior` belief of the excess, for the
+    /// `closure` [`Search::finish`] found: the slides weighed by both, and the
+    /// measurement that, taken with the prior, gives their weighed mean and spread.
+    /// `None` where they add next to nothing (the weighed variance within a twentieth of
+    /// the prior's). A turn whose ends agree almost as well over a wide slide so leaves
+    /// the belief nearly as it was, where its best slide taken as a Gaussian would move it
+    /// to wherever the readings' noise put the least cost.
+    pub fn given(&self, closure: &Closure, prior: Prior) -> Option<Closure> {
+        let weighed = self.weighed(closure.compared, Some(prior));
+        let (excess_mdeg, sd_mdeg) = measured(weighed, prior)?;
+        Some(Closure {
+            excess_mdeg,
+            sd_mdeg,
+            ..*closure
+        })
+    }
+
+    /// The slides' mean and variance (millidegrees, and squared), each slide weighted by the
+    /// likelihood of its disagreement over `n` readings, the cost a reading's mean squared
+    /// disagreement in the sensor's noise (`mean`, Q24), and by the `prior`'s Gaussian if
+    /// given. Out of line: [`Search::finish`] and [`Search::given`] share it. A disagreement is the difference of two readings, each with that noise, so its
+    /// variance is twice one's: the likelihood is `exp(-n (cost - best) / (2 x 2 max(best,
+    /// 1)))`. Where the readings disagree more than the sensor's noise says at the best slide
+    /// (its cost above one), the costs are taken in that larger noise. No slide judged: no
+    /// mean, and the whole slide's width as the spread.
+    #[inline(never)]
+    fn weighed(&self, n: u32, prior: Option<Prior>) -> (i64, i64) {
+        // Each slide's cost, then its exponent; `NOT_JUDGED` where too few readings compared.
+        const NOT_JUDGED: i64 = i64::MAX;
+        let mut x = [NOT_JUDGED; STEPS];
+        for (k, slot) in x.iter_mut().enumerate() {
+            *slot = self.mean(k).unwrap_or(NOT_JUDGED);
+        }
+        let best = x.iter().copied().min().unwrap_or(NOT_JUDGED);
+        if best == NOT_JUDGED {
+            return (0, i64::from(MAX_EXCESS_MDEG).pow(2));
+        }
+        let scale = best.max(1 << 24);
+        let slide = |k: usize| i64::from(k as i32 * SLIDE_MDEG - MAX_EXCESS_MDEG);
+        let (centre, var) = prior.map_or((0, 0), |p| {
+            (
+                i64::from(p.excess_mdeg.clamp(-PRIOR_REACH, PRIOR_REACH)),
+                i64::from(p.sd_mdeg).pow(2).max(1),
+            )
+        });
+        // Each slide's exponent in Q16: n (cost - best) / (4 scale), n at most a few thousand
+        // and the costs at most 9 in Q24, so the product fits 64 bits; and the prior's
+        // (slide - mean)^2 / (2 var), its mean within a few slide widths and its variance at
+        // least one.
+        for (k, slot) in x.iter_mut().enumerate() {
+            if *slot != NOT_JUDGED {
+                let off = slide(k) - centre;
+                let believed = if var > 0 {
+                    off * off * (1 << 15) / var
+                } else {
+                    0
+                };
+                *slot = i64::from(n) * (*slot - best) * (1 << 14) / scale + believed;
+            }
+        }
+        let floor = x.iter().copied().min().unwrap_or(0);
+        let (mut w_sum, mut wd_sum, mut wdd_sum) = (0i64, 0i64, 0i64);
+        for (k, &e) in x.iter().enumerate() {
+            if e == NOT_JUDGED {
+                continue;
+            }
+            let (w, d) = (exp_neg_q16(e - floor), slide(k));
+            w_sum += w;
+            wd_sum += w * d;
+            wdd_sum += w * d * d;
+        }
+        // The least exponent's weight is one (2^16), so the sum is never zero.
+        let mu = wd_sum / w_sum.max(1);
+        (mu, (wdd_sum / w_sum.max(1) - mu * mu).max(0))
+    }
+
+    /// Slide `k`'s summed cost and readings, if enough were compared to judge it.
+    fn judged(&self, k: usize) -> Option<(i64, u32)> {
+        let (&sum, &count) = (self.sums.get(k)?, self.counts.get(k)?);
+        (count >= MIN_COMPARED).then_some((i64::from(sum), count))
+    }
+
+    /// Slide `k`'s mean cost, Q24, if judged.
+    fn mean(&self, k: usize) -> Option<i64> {
+        self.judged(k).map(|(s, n)| s * 256 / i64::from(n))
+    }
 }
+
+/// The least variance a closure is given, millidegrees squared: a uniform step's own,
+/// the slide's step squared over 12.
+const LEAST_VAR: i64 = (SLIDE_MDEG as i64 * SLIDE_MDEG as i64) / 12;
 
 /// Sorts `readings` by bearing: an insertion sort, as the turn lays them nearly in order
 /// already (one scan's beams across the fan, then the next scan's a little further on),
@@ -354,36 +460,31 @@ fn sort_by_bearing(readings: &mut [Reading]) {
     }
 }
 
-/// The spread of the slides about their weighted mean, millidegrees, each weighted by
-/// the likelihood of its disagreement over `n` readings, the cost a reading's mean
-/// squared disagreement in the sensor's noise (`mean`, Q24). A disagreement is the
-/// difference of two readings, each with that noise, so its variance is twice one's: the
-/// weight is `exp(-n (cost - best) / (2 x 2 max(best, 1)))`. Where the readings disagree
-/// more than the sensor's noise says at the best slide (its cost above one), the costs
-/// are taken in that larger noise. At least the slide's own step's spread.
-fn spread_mdeg(mean: &impl Fn(usize) -> Option<i64>, steps: usize, n: u32) -> i32 {
-    let best = (0..steps).filter_map(mean).min().unwrap_or(0);
-    let scale = best.max(1 << 24);
-    let (mut w_sum, mut wd_sum, mut wdd_sum) = (0i64, 0i64, 0i64);
-    for k in 0..steps {
-        let Some(cost) = mean(k) else { continue };
-        // The exponent in Q16: n (cost - best) / (4 scale); n at most a few thousand and
-        // the costs at most 9 in Q24, so the product fits 64 bits.
-        let x = i64::from(n) * (cost - best) * (1 << 14) / scale;
-        let w = exp_neg_q16(x);
-        let d = i64::from(k as i32 * SLIDE_MDEG - MAX_EXCESS_MDEG);
-        w_sum += w;
-        wd_sum += w * d;
-        wdd_sum += w * d * d;
+/// How far the prior's excess is taken to lie from no excess at most, millidegrees: a
+/// filter whose belief is beyond the slides' reach is clamped to a few widths past it.
+const PRIOR_REACH: i32 = 4 * MAX_EXCESS_MDEG;
+
+/// The measurement that, taken with the `prior`, gives the weighed `(mean, variance)`
+/// (the variance at least [`LEAST_VAR`]): its excess and deviation, millidegrees. The
+/// slides add information `1 / var - 1 / prior_var`; `None` where that is next to none.
+fn measured((mu, var): (i64, i64), prior: Prior) -> Option<(i32, i32)> {
+    let a = i64::from(prior.sd_mdeg).pow(2).max(1);
+    let b = var.max(LEAST_VAR);
+    let gained = a - b;
+    if 20 * gained <= a {
+        return None;
     }
-    if w_sum == 0 {
-        return MAX_EXCESS_MDEG;
-    }
-    let mu = wd_sum / w_sum;
-    let var = (wdd_sum / w_sum - mu * mu).max(0);
-    // A uniform step's own spread: the step over root 12.
-    let least = i64::from(SLIDE_MDEG * SLIDE_MDEG) / 12;
-    (var.max(least) as u64).isqrt().min(i32::MAX as u64) as i32
+    let excess = (mu * a - i64::from(prior.excess_mdeg) * b) / gained;
+    let sd = root(a.saturating_mul(b) / gained);
+    Some((
+        excess.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32,
+        sd,
+    ))
+}
+
+/// The square root of a variance in millidegrees squared, as a deviation.
+fn root(var: i64) -> i32 {
+    (var.max(0) as u64).isqrt().min(i32::MAX as u64) as i32
 }
 
 /// `exp(-x)` for `x >= 0` in Q16, to about 2 %: `2^(-x log2 e)`, its whole part a shift

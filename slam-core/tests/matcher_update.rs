@@ -262,3 +262,37 @@ fn the_map_floors_each_direction_by_its_own_uncertainty() {
     assert!(along >= 0.99 * 250.0, "along the diagonal {along:.1} mm");
     assert!(across < 10.0, "across the diagonal {across:.1} mm");
 }
+
+/// A match that turns the heading further from its prediction than four of the filter's
+/// own heading deviations is refused, however wide its own spread says it is: a filter
+/// sure of its heading to 0.5 degrees takes a wall's pull of 1.5 degrees and refuses one of
+/// 2.5, whose spread (2 degrees) would pass the chi-square gate. A match that pins only
+/// the position is not held to it.
+#[test]
+fn a_match_that_turns_further_than_the_filter_believes_is_refused() {
+    let sure_heading = || {
+        Estimator::new(EstimatorConfig {
+            initial_position_mm: 10,
+            initial_heading_mdeg: 500,
+            ..EstimatorConfig::SEED
+        })
+    };
+    let map = MapUncertainty::default();
+    let near = hand_made(0, 0, -1_500, (30_000, 30_000, 2_000), Pins::HeadingOnly);
+    let turned = sure_heading()
+        .apply_match(&near, &NOISE, &map)
+        .map(|p| (p.heading - near.prediction.heading).to_millidegrees());
+    assert!(turned.is_ok_and(|t| (-1_500..0).contains(&t)), "{turned:?}");
+    let mut filter = sure_heading();
+    let before = *filter.covariance();
+    let far = hand_made(0, 0, -2_500, (30_000, 30_000, 2_000), Pins::HeadingOnly);
+    assert_eq!(
+        filter.apply_match(&far, &NOISE, &map),
+        Err(MatchRefusal::Gate)
+    );
+    assert_eq!(filter.covariance(), &before);
+    let position_only = hand_made(5_000, 0, -2_500, (2_000, 2_000, 2_000), Pins::PositionOnly);
+    assert!(sure_heading()
+        .apply_match(&position_only, &NOISE, &map)
+        .is_ok());
+}

@@ -52,6 +52,10 @@ pub struct MatchNoise {
 /// memory, and the step's loads with it (33 M0+ cycles in the worst step).
 pub const MATCH_STEP_UM: u32 = 20_000;
 
+/// How far a match may turn the heading from its prediction, in deviations of the
+/// filter's own heading ([`Estimator::apply_match`]).
+pub const TURN_GATE_SIGMAS: i64 = 4;
+
 impl MatchNoise {
     /// The seed's: a match's spread doubled, plus 3 mm and 0.3 degrees; floors of a
     /// 5 cm cell's quantisation (`50 / sqrt(12)` mm) and 0.3 degrees.
@@ -443,6 +447,9 @@ impl Estimator {
         map: &MapUncertainty,
         step_um: u32,
     ) -> Result<Pose, MatchRefusal> {
+        if self.turned_past_gate(matched, noise) {
+            return Err(MatchRefusal::Gate);
+        }
         let parts = Components::of(matched, noise);
         let floors = noise.floors(map);
         self.stepped(
@@ -453,6 +460,27 @@ impl Estimator {
                 bits => trial.matched(matched.pins, &parts.widened(bits), &floors),
             },
         )
+    }
+
+    /// Whether `matched` measures the heading and turns it from its prediction by more
+    /// than [`TURN_GATE_SIGMAS`] of the filter's own heading deviations (with `noise`'s
+    /// heading floor). The match's spread is its surface's over the search window, widened
+    /// for the map's errors before the gate: where a wall is drawn ragged (along a cell's
+    /// edge) the surface can lean to a heading the robot cannot have turned to, the lean
+    /// passing that gate, and the matches after it repeat it. Such a match is refused at
+    /// the gate, as a camera's leap is.
+    fn turned_past_gate(&self, matched: &Match, noise: &MatchNoise) -> bool {
+        if matches!(matched.pins, Pins::PositionOnly | Pins::AcrossOnly(_)) {
+            return false;
+        }
+        // Binary units (2^32 a turn) to millidegrees.
+        let turned =
+            (i64::from(matched.pose.heading.diff(matched.prediction.heading)) * 360_000) >> 32;
+        // The heading's variance in millidegrees squared: (180,000 / pi / 2^16)^2 a unit
+        // squared, Q16. Within 2^31 units squared, so the product fits 64 bits.
+        let filter = (self.p.get(State::Heading, State::Heading).max(0) * 50_088) >> 16;
+        let floor = i64::from(noise.floor_heading_mdeg);
+        turned * turned > (filter + floor * floor) * (TURN_GATE_SIGMAS * TURN_GATE_SIGMAS)
     }
 
     /// Updates the filter from a drive's measurement of the flow sensor's scale

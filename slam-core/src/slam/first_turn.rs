@@ -9,8 +9,9 @@
 //!
 //! [`FirstTurn`] keeps the turn's scans, each with the gyro's integral at its moment, from
 //! the run's first tick to its first drive. At the first drive
-//! ([`Slam::close_first_turn`]) the closure is taken as a measurement of the
-//! gyro's scale and of the heading, and the map is drawn again from the kept scans at
+//! ([`Slam::close_first_turn`]) the closure, weighed against the excess the filter
+//! already believed ([`crate::spin_closure::Search::given`]), is taken as a measurement
+//! of the gyro's scale and of the heading, and the map is drawn again from the kept scans at
 //! headings that share the closure's excess along the turn in proportion to how far each
 //! had turned. Only the first turn: later the map holds more than a turn laid. A turn
 //! that does not close (not a full turn, its ends not agreeing), one longer than
@@ -23,8 +24,8 @@ use super::{Localiser, Slam, StepReport};
 use crate::angle::Angle;
 use crate::estimator::{units, MapUncertainty, State};
 use crate::frame::{DepthScan, DriveCommand, SensorFrame};
-use crate::pose::{Pose, RigidMotion};
-use crate::spin_closure::{Closure, ClosureRefusal, Search, SpinScan};
+use crate::pose::{mul_q16, Pose, RigidMotion};
+use crate::spin_closure::{Closure, ClosureRefusal, Prior, Search, SpinScan};
 
 /// The most scans kept: 15 s of turning at 10 Hz, a full turn at 24 degrees a second
 /// and faster.
@@ -43,10 +44,12 @@ struct Place {
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Outcome {
-    /// Closed: the map drawn again at the closure's headings.
+    /// Closed: what the closure adds to the filter's belief taken, and the map drawn
+    /// again at the headings the filter then believes. The closure as the turn measured
+    /// it.
     Closed(Closure),
-    /// Closed, but the filter knew the heading better than the closure measured it:
-    /// nothing changed.
+    /// Closed, but the closure adds next to nothing to what the filter believed, or the
+    /// filter knew the heading better: nothing changed.
     Known(Closure),
     /// The turn did not close ([`ClosureRefusal`]): nothing changed.
     Refused(ClosureRefusal),
@@ -241,6 +244,9 @@ impl FirstTurn {
 /// step.
 const LEAST_SD_MDEG: i32 = 100;
 
+/// Millidegrees per heading unit of the filter (2^-16 rad), Q16.
+const MDEG_PER_HEADING_Q16: i32 = 57_293;
+
 /// An angle's signed turn, millidegrees, from its binary units.
 fn mdeg_of_bits(bits: i32) -> i64 {
     (i64::from(bits) * 360_000) >> 32
@@ -316,7 +322,12 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         }
         turn.search(usize::MAX);
         let outcome = match turn.search.finish() {
-            Ok(closure) => self.close(turn, closure),
+            Ok(closure) => {
+                let given = self
+                    .believed_excess(turn)
+                    .and_then(|prior| turn.search.given(&closure, prior));
+                self.close(turn, closure, given)
+            }
             Err(why) => Outcome::Refused(why),
         };
         turn.end(outcome);
@@ -324,6 +335,34 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             Outcome::Closed(_) => self.with_belief(report),
             _ => report,
         }
+    }
+
+    /// The excess the filter believes the turn ran, over the turn the closure is searched
+    /// on, and its deviation: the gyro's integral since the start less the turn the
+    /// filter's heading makes of it, which its heading's deviation bounds (that deviation
+    /// holds the start's too, so the prior is if anything wider than the filter's belief
+    /// of the excess). `None` before the start is known.
+    fn believed_excess(&self, turn: &FirstTurn) -> Option<Prior> {
+        let start = turn.start()?;
+        let turned = turn.turned_mdeg();
+        let integral_now = start.wrapping_add(Angle::from_millidegrees(turned));
+        // The filter's heading short of the integral's is the excess so far.
+        let excess = -mdeg_of_bits(self.pose.heading.diff(integral_now));
+        let searched = i64::from(turn.search.turn_mdeg());
+        let excess = match turned {
+            0 => excess,
+            t => excess * searched / t,
+        };
+        let hh = self
+            .estimator
+            .covariance()
+            .get(State::Heading, State::Heading);
+        // Heading units (2^-16 rad) to millidegrees: x 180,000 / pi / 2^16, Q16.
+        let sd = mul_q16((hh.max(0) as u64).isqrt() as i64, MDEG_PER_HEADING_Q16);
+        Some(Prior {
+            excess_mdeg: excess.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32,
+            sd_mdeg: sd.clamp(1, i64::from(i32::MAX)) as i32,
+        })
     }
 
     /// Keeps the frame's depth scan, if the pose of its moment is remembered, with the
@@ -337,11 +376,16 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         turn.keep(scan, (then.x_um, then.y_um), turned as i32)
     }
 
-    /// Takes the kept turn's `closure` as the gyro's scale and the heading, and draws the
-    /// map again from the kept scans that have left the sweep.
-    fn close(&mut self, turn: &FirstTurn, closure: Closure) -> Outcome {
+    /// Takes what the kept turn's `closure` adds to the filter's belief (`given`,
+    /// [`Search::given`]) as the gyro's scale and the heading, and draws the map again
+    /// from the kept scans that have left the sweep; the outcome carries the closure as
+    /// the turn measured it.
+    fn close(&mut self, turn: &FirstTurn, measured: Closure, given: Option<Closure>) -> Outcome {
         let Some(start) = turn.start() else {
             return Outcome::GivenUp(GiveUp::Doubted);
+        };
+        let Some(closure) = given else {
+            return Outcome::Known(measured);
         };
         // The map drawn again is the closure's: worth it only where the closure knows the
         // heading at least as well as the filter, whose matches laid the map (with tags
@@ -352,7 +396,7 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             .covariance()
             .get(State::Heading, State::Heading);
         if known <= sd.saturating_mul(sd) {
-            return Outcome::Known(closure);
+            return Outcome::Known(measured);
         }
         let span = i64::from(closure.turn_mdeg.unsigned_abs().max(1));
         let sd_ppm = i64::from(closure.sd_mdeg) * 1_000_000 / span;
@@ -401,6 +445,6 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             self.map_scan(&scan, &pose);
         }
         self.map_uncertainty = MapUncertainty::drawn_at(&self.estimator);
-        Outcome::Closed(closure)
+        Outcome::Closed(measured)
     }
 }
