@@ -103,6 +103,15 @@ pub struct Prior {
     pub sd_mdeg: i32,
 }
 
+impl Prior {
+    /// The deviation's square, millidegrees squared, the deviation taken within 1 and a
+    /// whole turn: a belief wider than that says nothing, and the products it enters stay
+    /// within 64 bits.
+    fn variance(&self) -> i64 {
+        i64::from(self.sd_mdeg.clamp(1, 360_000)).pow(2)
+    }
+}
+
 /// Why a turn's closure was not measured.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -372,14 +381,15 @@ impl Search {
         })
     }
 
-    /// The slides' mean and variance (millidegrees, and squared), each slide weighted by the
-    /// likelihood of its disagreement over `n` readings, the cost a reading's mean squared
-    /// disagreement in the sensor's noise (`mean`, Q24), and by the `prior`'s Gaussian if
-    /// given. Out of line: [`Search::finish`] and [`Search::given`] share it. A disagreement is the difference of two readings, each with that noise, so its
-    /// variance is twice one's: the likelihood is `exp(-n (cost - best) / (2 x 2 max(best,
-    /// 1)))`. Where the readings disagree more than the sensor's noise says at the best slide
-    /// (its cost above one), the costs are taken in that larger noise. No slide judged: no
-    /// mean, and the whole slide's width as the spread.
+    /// The slides' mean and variance (millidegrees, and squared), each slide weighted by
+    /// the likelihood of its disagreement over `n` readings, the cost a reading's mean
+    /// squared disagreement in the sensor's noise (`mean`, Q24), and by the `prior`'s
+    /// Gaussian if given. A disagreement is the difference of two readings, each with that
+    /// noise, so its variance is twice one's: the likelihood is `exp(-n (cost - best) /
+    /// (2 x 2 max(best, 1)))`. Where the readings disagree more than the sensor's noise
+    /// says at the best slide (its cost above one), the costs are taken in that larger
+    /// noise. No slide judged: no mean, and the whole slide's width as the spread. Out of
+    /// line: [`Search::finish`] and [`Search::given`] share it.
     #[inline(never)]
     fn weighed(&self, n: u32, prior: Option<Prior>) -> (i64, i64) {
         // Each slide's cost, then its exponent; `NOT_JUDGED` where too few readings compared.
@@ -397,7 +407,7 @@ impl Search {
         let (centre, var) = prior.map_or((0, 0), |p| {
             (
                 i64::from(p.excess_mdeg.clamp(-PRIOR_REACH, PRIOR_REACH)),
-                i64::from(p.sd_mdeg).pow(2).max(1),
+                p.variance(),
             )
         });
         // Each slide's exponent in Q16: n (cost - best) / (4 scale), n at most a few thousand
@@ -468,7 +478,7 @@ const PRIOR_REACH: i32 = 4 * MAX_EXCESS_MDEG;
 /// (the variance at least [`LEAST_VAR`]): its excess and deviation, millidegrees. The
 /// slides add information `1 / var - 1 / prior_var`; `None` where that is next to none.
 fn measured((mu, var): (i64, i64), prior: Prior) -> Option<(i32, i32)> {
-    let a = i64::from(prior.sd_mdeg).pow(2).max(1);
+    let a = prior.variance();
     let b = var.max(LEAST_VAR);
     let gained = a - b;
     if 20 * gained <= a {

@@ -478,7 +478,7 @@ impl Estimator {
             (i64::from(matched.pose.heading.diff(matched.prediction.heading)) * 360_000) >> 32;
         // The heading's variance in millidegrees squared: (180,000 / pi / 2^16)^2 a unit
         // squared, Q16. Within 2^31 units squared, so the product fits 64 bits.
-        let filter = (self.p.get(State::Heading, State::Heading).max(0) * 50_088) >> 16;
+        let filter = (self.p.get(State::Heading, State::Heading).max(0) * 50_092) >> 16;
         let floor = i64::from(noise.floor_heading_mdeg);
         turned * turned > (filter + floor * floor) * (TURN_GATE_SIGMAS * TURN_GATE_SIGMAS)
     }

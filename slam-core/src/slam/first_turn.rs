@@ -245,7 +245,7 @@ impl FirstTurn {
 const LEAST_SD_MDEG: i32 = 100;
 
 /// Millidegrees per heading unit of the filter (2^-16 rad), Q16.
-const MDEG_PER_HEADING_Q16: i32 = 57_293;
+const MDEG_PER_HEADING_Q16: i32 = 57_296;
 
 /// An angle's signed turn, millidegrees, from its binary units.
 fn mdeg_of_bits(bits: i32) -> i64 {
