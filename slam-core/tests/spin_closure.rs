@@ -286,3 +286,43 @@ fn a_closure_adds_nothing_to_a_sure_belief_and_all_it_knows_to_a_blind_one() {
         (alone.turn_mdeg, alone.compared)
     );
 }
+
+/// Any belief at all, however far off or wide, gives a closure or none, never a panic or
+/// a wrapped product (debug builds check every one): a belief wider than a turn is taken
+/// as a turn wide.
+#[test]
+fn a_closure_given_any_belief_stays_in_range() {
+    let beams = GuardConfig::SEED.beam_angles;
+    let scans = spin(600.0, 600.0, 1.0, 0.0075, 9);
+    let mut search = Search::new();
+    assert_eq!(search.start(&scans, &beams), Ok(()));
+    while !search.search(&scans, usize::MAX) {}
+    let alone = search.finish().unwrap();
+    for excess_mdeg in [i32::MIN, -1_000_000, 0, 2_700, 1_000_000, i32::MAX] {
+        for sd_mdeg in [i32::MIN, 0, 1, 1_500, 360_000, i32::MAX] {
+            let given = search.given(
+                &alone,
+                Prior {
+                    excess_mdeg,
+                    sd_mdeg,
+                },
+            );
+            if let Some(c) = given {
+                assert!(c.sd_mdeg > 0, "{excess_mdeg} {sd_mdeg}: {c:?}");
+            }
+        }
+    }
+    let wide = search
+        .given(
+            &alone,
+            Prior {
+                excess_mdeg: 0,
+                sd_mdeg: i32::MAX,
+            },
+        )
+        .unwrap();
+    assert!(
+        (wide.sd_mdeg - alone.sd_mdeg).abs() <= alone.sd_mdeg / 10,
+        "{wide:?}"
+    );
+}
