@@ -337,32 +337,20 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         }
     }
 
-    /// The excess the filter believes the turn ran, over the turn the closure is searched
-    /// on, and its deviation: the gyro's integral since the start less the turn the
-    /// filter's heading makes of it, which its heading's deviation bounds (that deviation
-    /// holds the start's too, so the prior is if anything wider than the filter's belief
-    /// of the excess). `None` before the start is known.
+    /// The excess the filter believes the turn ran ([`believed_excess`]); `None` before
+    /// the start is known.
     fn believed_excess(&self, turn: &FirstTurn) -> Option<Prior> {
-        let start = turn.start()?;
-        let turned = turn.turned_mdeg();
-        let integral_now = start.wrapping_add(Angle::from_millidegrees(turned));
-        // The filter's heading short of the integral's is the excess so far.
-        let excess = -mdeg_of_bits(self.pose.heading.diff(integral_now));
-        let searched = i64::from(turn.search.turn_mdeg());
-        let excess = match turned {
-            0 => excess,
-            t => excess * searched / t,
-        };
         let hh = self
             .estimator
             .covariance()
             .get(State::Heading, State::Heading);
-        // Heading units (2^-16 rad) to millidegrees: x 180,000 / pi / 2^16, Q16.
-        let sd = mul_q16((hh.max(0) as u64).isqrt() as i64, MDEG_PER_HEADING_Q16);
-        Some(Prior {
-            excess_mdeg: excess.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32,
-            sd_mdeg: sd.clamp(1, i64::from(i32::MAX)) as i32,
-        })
+        Some(believed_excess(
+            turn.start()?,
+            turn.turned_mdeg(),
+            self.pose.heading,
+            turn.search.turn_mdeg(),
+            hh,
+        ))
     }
 
     /// Keeps the frame's depth scan, if the pose of its moment is remembered, with the
@@ -446,5 +434,62 @@ impl<const W: usize, const H: usize> Slam<W, H> {
         }
         self.map_uncertainty = MapUncertainty::drawn_at(&self.estimator);
         Outcome::Closed(measured)
+    }
+}
+
+/// The excess a filter believes a turn ran, along the turn, over the `searched_mdeg` the
+/// closure is searched on, and its deviation: the gyro's integral since the `start`
+/// (`turned_mdeg`, either way) less the turn the filter's `heading` makes of it, which its
+/// heading's variance `heading_var` (the filter's units, 2^-16 rad) bounds. That variance
+/// holds the start's too, so the prior is if anything wider than the filter's belief of
+/// the excess.
+fn believed_excess(
+    start: Angle,
+    turned_mdeg: i64,
+    heading: Angle,
+    searched_mdeg: i32,
+    heading_var: i64,
+) -> Prior {
+    let integral_now = start.wrapping_add(Angle::from_millidegrees(turned_mdeg));
+    // How far the integral ran past the filter's heading along the turn (the closure's
+    // excess is measured along it, whichever way it turned); over the searched turn in
+    // proportion.
+    let past = -mdeg_of_bits(heading.diff(integral_now)) * turned_mdeg.signum();
+    let searched = i64::from(searched_mdeg).abs();
+    let excess = match turned_mdeg.abs() {
+        0 => past,
+        t => past * searched / t,
+    };
+    // Heading units (2^-16 rad) to millidegrees: x 180,000 / pi / 2^16, Q16.
+    let sd = mul_q16(
+        (heading_var.max(0) as u64).isqrt() as i64,
+        MDEG_PER_HEADING_Q16,
+    );
+    Prior {
+        excess_mdeg: excess.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32,
+        sd_mdeg: sd.clamp(1, i64::from(i32::MAX)) as i32,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A turn's excess is along the turn, whichever way it turned: a gyro that ran 3
+    /// degrees past a filter's heading over a full turn either way is an excess of +3
+    /// degrees; one that fell 2 short, -2, and over a closure searched on half the turn,
+    /// -1.
+    #[test]
+    fn the_believed_excess_runs_along_the_turn_either_way() {
+        let start = Angle::from_millidegrees(40_000);
+        let var = 1 << 20; // (1024 units: 895 mdeg)^2
+        for way in [1, -1] {
+            let heading = start.wrapping_add(Angle::from_millidegrees(way * 362_000));
+            let past = believed_excess(start, way * 365_000, heading, (way * 365_000) as i32, var);
+            assert!((past.excess_mdeg - 3_000).abs() <= 1, "{way}: {past:?}");
+            assert!((past.sd_mdeg - 895).abs() <= 1, "{way}: {past:?}");
+            let short = believed_excess(start, way * 360_000, heading, (way * 180_000) as i32, var);
+            assert!((short.excess_mdeg + 1_000).abs() <= 1, "{way}: {short:?}");
+        }
     }
 }
