@@ -187,6 +187,14 @@ fn a_closure_searched_in_pieces_is_the_one_measured_at_once() {
     }
 }
 
+/// A turn's closure searched whole, ready to finish.
+fn searched(scans: &[SpinScan]) -> Search {
+    let mut search = Search::new();
+    assert_eq!(search.start(scans, &GuardConfig::SEED.beam_angles), Ok(()));
+    while !search.search(scans, usize::MAX) {}
+    search
+}
+
 /// `prior` and `closure` fused as two Gaussians, as the filter takes a closure: the mean
 /// and deviation, millidegrees.
 fn fused(prior: Prior, closure: &Closure) -> (f64, f64) {
@@ -206,7 +214,6 @@ fn fused(prior: Prior, closure: &Closure) -> (f64, f64) {
 /// slides agree almost as well over a wide span.
 #[test]
 fn a_closure_weighed_against_the_filters_belief_adds_what_the_slides_know() {
-    let beams = GuardConfig::SEED.beam_angles;
     let mut noise = Noise(Lcg(4242));
     let (mut turns, mut within) = (0, 0);
     // Each place's summed error of the fused excess, weighed and alone, millidegrees.
@@ -216,10 +223,7 @@ fn a_closure_weighed_against_the_filters_belief_adds_what_the_slides_know() {
         for direction in [1.0, -1.0] {
             for seed in 1..=20u64 {
                 let scale_error = 0.0075;
-                let scans = spin(x, y, direction, scale_error, seed * 104_729 + 7);
-                let mut search = Search::new();
-                assert_eq!(search.start(&scans, &beams), Ok(()));
-                while !search.search(&scans, usize::MAX) {}
+                let search = searched(&spin(x, y, direction, scale_error, seed * 104_729 + 7));
                 let truth = true_excess_mdeg(scale_error);
                 let prior = Prior {
                     excess_mdeg: (truth + 1500.0 * noise.gauss()).round() as i32,
@@ -261,11 +265,7 @@ fn a_closure_weighed_against_the_filters_belief_adds_what_the_slides_know() {
 /// takes them nearly as they are.
 #[test]
 fn a_closure_adds_nothing_to_a_sure_belief_and_all_it_knows_to_a_blind_one() {
-    let beams = GuardConfig::SEED.beam_angles;
-    let scans = spin(1800.0, 2000.0, 1.0, 0.0075, 5);
-    let mut search = Search::new();
-    assert_eq!(search.start(&scans, &beams), Ok(()));
-    while !search.search(&scans, usize::MAX) {}
+    let search = searched(&spin(1800.0, 2000.0, 1.0, 0.0075, 5));
     let alone = search.finish().unwrap();
     let sure = Prior {
         excess_mdeg: 2_700,
@@ -292,11 +292,7 @@ fn a_closure_adds_nothing_to_a_sure_belief_and_all_it_knows_to_a_blind_one() {
 /// as a turn wide.
 #[test]
 fn a_closure_given_any_belief_stays_in_range() {
-    let beams = GuardConfig::SEED.beam_angles;
-    let scans = spin(600.0, 600.0, 1.0, 0.0075, 9);
-    let mut search = Search::new();
-    assert_eq!(search.start(&scans, &beams), Ok(()));
-    while !search.search(&scans, usize::MAX) {}
+    let search = searched(&spin(600.0, 600.0, 1.0, 0.0075, 9));
     let alone = search.finish().unwrap();
     for excess_mdeg in [i32::MIN, -1_000_000, 0, 2_700, 1_000_000, i32::MAX] {
         for sd_mdeg in [i32::MIN, 0, 1, 1_500, 360_000, i32::MAX] {
