@@ -158,6 +158,12 @@ impl Angle {
     }
 }
 
+/// A signed turn of `bits` binary units (2^32 a turn, as [`Angle::diff`] gives it), in
+/// millidegrees, rounded down.
+pub fn mdeg_of_bits(bits: i32) -> i64 {
+    (i64::from(bits) * 360_000) >> 32
+}
+
 impl Add for Angle {
     type Output = Angle;
     fn add(self, rhs: Angle) -> Angle {

@@ -19,6 +19,7 @@ use super::fixed::{fits_i32, mul_shift_call as mul_shift, square, Reciprocal};
 use super::step_limit::steps_further;
 use super::units::{self, FINE_SHIFT};
 use super::State;
+use crate::angle::mdeg_of_bits;
 use crate::matcher::{Match, MatchRefusal, Pins};
 use crate::pose::Pose;
 use crate::wall_rate::FlowScale;
@@ -473,12 +474,12 @@ impl Estimator {
         if matches!(matched.pins, Pins::PositionOnly | Pins::AcrossOnly(_)) {
             return false;
         }
-        // Binary units (2^32 a turn) to millidegrees.
-        let turned =
-            (i64::from(matched.pose.heading.diff(matched.prediction.heading)) * 360_000) >> 32;
-        // The heading's variance in millidegrees squared: (180,000 / pi / 2^16)^2 a unit
-        // squared, Q16. Within 2^31 units squared, so the product fits 64 bits.
-        let filter = (self.p.get(State::Heading, State::Heading).max(0) * 50_092) >> 16;
+        let turned = mdeg_of_bits(matched.pose.heading.diff(matched.prediction.heading));
+        // The heading's variance in millidegrees squared; within 2^31 units squared, so
+        // the product fits 64 bits.
+        let filter = (self.p.get(State::Heading, State::Heading).max(0)
+            * units::MDEG2_PER_HEADING2_Q16)
+            >> 16;
         let floor = i64::from(noise.floor_heading_mdeg);
         turned * turned > (filter + floor * floor) * (TURN_GATE_SIGMAS * TURN_GATE_SIGMAS)
     }

@@ -13,6 +13,13 @@ pub const HEADING_PER_RAD: i64 = 1 << 16;
 /// Fine units per covariance unit, for the calibration's means and for corrections.
 pub const FINE_SHIFT: u32 = 8;
 
+/// Millidegrees per heading unit (2^-16 rad): 180,000 / pi / 2^16, Q16.
+pub const MDEG_PER_HEADING_Q16: i32 = 57_296;
+
+/// Millidegrees squared per heading unit squared: `MDEG_PER_HEADING_Q16`'s square to the
+/// nearest, Q16 (a variance's conversion, without the rounding of the unit's).
+pub const MDEG2_PER_HEADING2_Q16: i64 = 50_092;
+
 /// Micrometres to position units (x 0.016, by a Q26 multiply: no division on the M0+).
 pub fn position_from_um(um: i64) -> i64 {
     position_from_um_frac(um, 0)
@@ -98,7 +105,10 @@ mod tests {
         assert_eq!(ppm_from_fine_scale(1 << 24), 1_000_000);
         // 1 rad/s is 57295.8 mdps.
         assert_eq!(mdps_from_fine_bias(1 << 24), 57_296);
-        assert_eq!(seconds_q16_from_us(1_000_000), 65_536);
-        assert_eq!(seconds_q16_from_us(100_000), 6_554);
+        // Half a turn's heading units back to millidegrees, and a unit's square's.
+        let half = heading_from_mdeg(180_000);
+        assert!((((half * i64::from(MDEG_PER_HEADING_Q16)) >> 16) - 180_000).abs() <= 1);
+        let squared = (half * half * MDEG2_PER_HEADING2_Q16) >> 16;
+        assert!((squared - 180_000i64.pow(2)).abs() < 180_000i64.pow(2) / 10_000);
     }
 }

@@ -21,7 +21,7 @@
 //! [`crate::wall_rate::WallRate`] is, so that the step's own state keeps its layout.
 
 use super::{Localiser, Slam, StepReport};
-use crate::angle::Angle;
+use crate::angle::{mdeg_of_bits, Angle};
 use crate::estimator::{units, MapUncertainty, State};
 use crate::frame::{DepthScan, DriveCommand, SensorFrame};
 use crate::pose::{mul_q16, Pose, RigidMotion};
@@ -244,14 +244,6 @@ impl FirstTurn {
 /// step.
 const LEAST_SD_MDEG: i32 = 100;
 
-/// Millidegrees per heading unit of the filter (2^-16 rad), Q16.
-const MDEG_PER_HEADING_Q16: i32 = 57_296;
-
-/// An angle's signed turn, millidegrees, from its binary units.
-fn mdeg_of_bits(bits: i32) -> i64 {
-    (i64::from(bits) * 360_000) >> 32
-}
-
 impl<const W: usize, const H: usize> Slam<W, H> {
     /// Keeps the run's first turn on the spot in `turn` (the caller's, beside
     /// [`Slam::measure_walls`]'s) from the tick `step` took `frame` in, and on the first
@@ -460,10 +452,9 @@ fn believed_excess(
         0 => past,
         t => past * searched / t,
     };
-    // Heading units (2^-16 rad) to millidegrees: x 180,000 / pi / 2^16, Q16.
     let sd = mul_q16(
         (heading_var.max(0) as u64).isqrt() as i64,
-        MDEG_PER_HEADING_Q16,
+        units::MDEG_PER_HEADING_Q16,
     );
     Prior {
         excess_mdeg: excess.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32,
