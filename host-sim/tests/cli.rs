@@ -2,23 +2,10 @@
 
 mod common;
 
-use common::{host_sim, seed_path, SCORED_FIGURES};
-use std::path::PathBuf;
-use tempfile::TempDir;
+use common::{host_sim, scratch_dir, scratch_file, seed_path, SCORED_FIGURES};
 
-/// A directory for a test's files, removed when the test ends, passed or failed.
-fn scratch_dir() -> TempDir {
-    TempDir::with_prefix("host-sim-cli-").expect("scratch dir")
-}
-
-/// A file in `dir` holding `text`.
-fn scratch(dir: &TempDir, name: &str, text: &str) -> PathBuf {
-    let path = dir.path().join(name);
-    if let Err(e) = std::fs::write(&path, text) {
-        panic!("cannot write {}: {e}", path.display());
-    }
-    path
-}
+/// The prefix of this file's scratch directories.
+const SCRATCH: &str = "host-sim-cli-";
 
 fn seed_text() -> String {
     std::fs::read_to_string(seed_path()).unwrap_or_default()
@@ -26,8 +13,8 @@ fn seed_text() -> String {
 
 /// Runs a scenario that must be refused: exit code 2, no panic, and `field` named.
 fn refused(name: &str, text: &str, field: &str) {
-    let dir = scratch_dir();
-    let path = scratch(&dir, name, text);
+    let dir = scratch_dir(SCRATCH);
+    let path = scratch_file(&dir, name, text);
     let out = host_sim(&["run", path.to_str().unwrap_or_default(), "--json"]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{name}: {err}");
@@ -261,8 +248,8 @@ fn camera_latency_is_checked() {
     );
     refused("latency-text.toml", &with("\"slow\""), "latency_ms");
     // A good value runs.
-    let dir = scratch_dir();
-    let path = scratch(&dir, "latency-ok.toml", &with("100"));
+    let dir = scratch_dir(SCRATCH);
+    let path = scratch_file(&dir, "latency-ok.toml", with("100"));
     let out = host_sim(&["run", path.to_str().unwrap_or_default(), "--json"]);
     assert!(
         out.status.success(),
@@ -273,7 +260,7 @@ fn camera_latency_is_checked() {
 
 #[test]
 fn a_name_that_would_leave_the_out_dir_is_refused() {
-    let dir = scratch_dir();
+    let dir = scratch_dir(SCRATCH);
     for (file, name) in [
         ("name-abs.toml", "/abs/x"),
         ("name-up.toml", "../../x"),
@@ -282,7 +269,7 @@ fn a_name_that_would_leave_the_out_dir_is_refused() {
         ("name-empty.toml", ""),
     ] {
         let text = seed_text().replace("name = \"seed-mat\"", &format!("name = \"{name}\""));
-        let path = scratch(&dir, file, &text);
+        let path = scratch_file(&dir, file, &text);
         let out_dir = path.with_file_name(format!("{file}-out"));
         let out = host_sim(&[
             "run",
@@ -395,8 +382,8 @@ fn numbers_the_core_checks_are_checked_first() {
 #[test]
 fn a_route_longer_than_a_run_is_refused_before_it_runs() {
     let text = seed_text().replace("seconds = 7", "seconds = 3000");
-    let dir = scratch_dir();
-    let path = scratch(&dir, "route-long.toml", &text);
+    let dir = scratch_dir(SCRATCH);
+    let path = scratch_file(&dir, "route-long.toml", &text);
     let started = std::time::Instant::now();
     let out = host_sim(&["run", path.to_str().unwrap_or_default(), "--json"]);
     let err = String::from_utf8_lossy(&out.stderr);

@@ -4,14 +4,11 @@
 #[allow(dead_code)] // not every helper is used here
 mod common;
 
-use common::{host_sim, seed_path};
+use common::{host_sim, scratch_dir, seed_path};
 use std::net::TcpListener;
-use tempfile::TempDir;
 
-/// A directory for a test's files, removed when the test ends, passed or failed.
-fn scratch() -> TempDir {
-    TempDir::with_prefix("host-sim-live-cli-").expect("scratch dir")
-}
+/// The prefix of this file's scratch directories.
+const SCRATCH: &str = "host-sim-live-cli-";
 
 fn seed() -> String {
     seed_path().to_str().unwrap_or_default().to_string()
@@ -93,7 +90,7 @@ fn speeds_out_of_range_and_live_options_without_live_are_refused() {
 
 #[test]
 fn an_mcap_file_that_cannot_be_written_is_named() {
-    let dir = scratch();
+    let dir = scratch_dir(SCRATCH);
     let path = dir.path().join("no-such-dir").join("run.mcap");
     let path = path.to_str().unwrap_or_default();
     let out = host_sim(&["run", &seed(), "--mcap", path]);
@@ -104,7 +101,7 @@ fn an_mcap_file_that_cannot_be_written_is_named() {
 
 #[test]
 fn garbage_ends_the_session_cleanly() {
-    let dir = scratch();
+    let dir = scratch_dir(SCRATCH);
     let garbage = dir.path().join("garbage.bin");
     let bytes: Vec<u8> = (0..20_000u32)
         .map(|i| (i.wrapping_mul(2_654_435_761) >> 13) as u8)
@@ -140,7 +137,7 @@ fn garbage_ends_the_session_cleanly() {
 
 #[test]
 fn a_stream_cut_short_plays_to_its_end_with_the_usual_summary() {
-    let dir = scratch();
+    let dir = scratch_dir(SCRATCH);
     let telemetry = dir.path().join("seed.bin");
     let out = host_sim(&[
         "run",

@@ -4,15 +4,12 @@
 #[allow(dead_code)] // not every helper is used here
 mod common;
 
-use common::{host_sim, seed_path};
+use common::{host_sim, scratch_dir, seed_path};
 use foxglove::messages::{log::Level, Log};
 use foxglove::Decode;
-use tempfile::TempDir;
 
-/// A directory for a test's files, removed when the test ends, passed or failed.
-fn scratch() -> TempDir {
-    TempDir::with_prefix("host-sim-mcap-log-").expect("scratch dir")
-}
+/// The prefix of this file's scratch directories.
+const SCRATCH: &str = "host-sim-mcap-log-";
 
 fn text(path: &std::path::Path) -> &str {
     path.to_str().unwrap_or_default()
@@ -27,7 +24,7 @@ enum Seen {
 
 #[test]
 fn the_firmware_log_goes_out_on_log_in_time_order_with_the_ticks() {
-    let dir = scratch();
+    let dir = scratch_dir(SCRATCH);
     let (stream, log, mcap) = (
         dir.path().join("seed.bin"),
         dir.path().join("robot.log"),
@@ -155,7 +152,7 @@ fn the_firmware_log_goes_out_on_log_in_time_order_with_the_ticks() {
 
 #[test]
 fn log_without_live_or_mcap_is_refused_and_a_missing_log_named() {
-    let dir = scratch();
+    let dir = scratch_dir(SCRATCH);
     let stream = dir.path().join("refused.bin");
     let run = host_sim(&["run", text(&seed_path()), "--telemetry", text(&stream)]);
     assert!(run.status.success());

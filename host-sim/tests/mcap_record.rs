@@ -4,7 +4,7 @@
 #[allow(dead_code)] // not every helper is used here
 mod common;
 
-use common::{host_sim, seed_path};
+use common::{host_sim, scratch_dir, seed_path};
 use foxglove::messages::Grid;
 use foxglove::Decode;
 use host_sim::live::grid::{probability, CELL_BYTES, PROBABILITY_FIELD};
@@ -12,13 +12,10 @@ use host_sim::record::CellBelief;
 use host_sim::telemetry::decode_bytes;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
-use tempfile::TempDir;
 use wire::telemetry::{Hello, Message, StreamDecoder};
 
-/// A directory for a test's files, removed when the test ends, passed or failed.
-fn scratch() -> TempDir {
-    TempDir::with_prefix("host-sim-mcap-").expect("scratch dir")
-}
+/// The prefix of this file's scratch directories.
+const SCRATCH: &str = "host-sim-mcap-";
 
 fn read(path: &PathBuf) -> Vec<u8> {
     match std::fs::read(path) {
@@ -71,7 +68,7 @@ fn stream(bytes: &[u8]) -> Stream {
 
 #[test]
 fn the_mcap_holds_every_channel_and_ends_with_the_streams_map() {
-    let dir = scratch();
+    let dir = scratch_dir(SCRATCH);
     let (mcap_path, telemetry_path) = (dir.path().join("seed.mcap"), dir.path().join("seed.bin"));
     let out = host_sim(&[
         "run",

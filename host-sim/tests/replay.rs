@@ -5,14 +5,15 @@
 #[allow(dead_code)]
 mod common;
 
-use common::{host_sim, seed_path};
+use common::{host_sim, scratch_dir, scratch_file, seed_path};
 use host_sim::replay::{replay, ReplayError};
 use host_sim::run::run_with_telemetry;
 use host_sim::telemetry::{decode_bytes, TelemetryWriter};
 use host_sim::{PoseMode, Scenario};
-use std::path::PathBuf;
-use tempfile::TempDir;
 use wire::telemetry::{encode, Message, StreamDecoder, Tick, MAX_FRAME_LEN};
+
+/// The prefix of this file's scratch directories.
+const SCRATCH: &str = "host-sim-replay-";
 
 fn seed() -> Scenario {
     match Scenario::load(&seed_path()) {
@@ -54,20 +55,6 @@ fn ticks(bytes: &[u8]) -> Vec<Tick> {
             _ => None,
         })
         .collect()
-}
-
-/// A directory for a test's files, removed when the test ends, passed or failed.
-fn scratch_dir() -> TempDir {
-    TempDir::with_prefix("host-sim-replay-").expect("scratch dir")
-}
-
-/// A file in `dir` holding `bytes`.
-fn scratch(dir: &TempDir, name: &str, bytes: &[u8]) -> PathBuf {
-    let path = dir.path().join(name);
-    if let Err(e) = std::fs::write(&path, bytes) {
-        panic!("cannot write {}: {e}", path.display());
-    }
-    path
 }
 
 #[test]
@@ -123,8 +110,8 @@ fn another_localiser_replays_to_its_own_run() {
     assert_eq!(a.recorder.beliefs(), z.recorder.beliefs());
 
     // And through the command line: the figures `run --pose dead-reckoning` gives.
-    let dir = scratch_dir();
-    let path = scratch(&dir, "slam.bin", &from_slam);
+    let dir = scratch_dir(SCRATCH);
+    let path = scratch_file(&dir, "slam.bin", &from_slam);
     let out = host_sim(&[
         "replay",
         &path.to_string_lossy(),
@@ -158,8 +145,8 @@ fn another_localiser_replays_to_its_own_run() {
 
 #[test]
 fn the_command_line_reports_bit_for_bit() {
-    let dir = scratch_dir();
-    let path = scratch(&dir, "tags.bin", &recorded(&seed(), PoseMode::Tags));
+    let dir = scratch_dir(SCRATCH);
+    let path = scratch_file(&dir, "tags.bin", recorded(&seed(), PoseMode::Tags));
     let out = host_sim(&["replay", &path.to_string_lossy(), "--json"]);
     assert!(
         out.status.success(),
@@ -190,8 +177,8 @@ fn a_stream_without_inputs_is_a_clear_error() {
         replay(&seed(), &bytes, None),
         Err(ReplayError::NoInputs { frames_ok }) if frames_ok > 0
     ));
-    let dir = scratch_dir();
-    let path = scratch(&dir, "no-inputs.bin", &bytes);
+    let dir = scratch_dir(SCRATCH);
+    let path = scratch_file(&dir, "no-inputs.bin", &bytes);
     let out = host_sim(&["replay", &path.to_string_lossy()]);
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
@@ -238,8 +225,8 @@ fn a_stream_that_lies_is_reported_not_a_panic() {
         d.as_ref().map(|d| (d.tick, d.field.as_str())),
         Some((100, "inputs"))
     );
-    let dir = scratch_dir();
-    let path = scratch(&dir, "lost.bin", &framed(&lost));
+    let dir = scratch_dir(SCRATCH);
+    let path = scratch_file(&dir, "lost.bin", framed(&lost));
     let out = host_sim(&["replay", &path.to_string_lossy()]);
     assert_eq!(out.status.code(), Some(3), "a replay that differs fails");
     let text = String::from_utf8_lossy(&out.stdout);

@@ -5,16 +5,13 @@
 #[allow(dead_code)]
 mod common;
 
-use common::{host_sim, seed_path};
+use common::{host_sim, scratch_dir, seed_path};
 use host_sim::record::{CellBelief, MapSnapshot};
 use host_sim::{run, PoseMode, Scenario};
 use std::path::Path;
-use tempfile::TempDir;
 
-/// A directory for a test's files, removed when the test ends, passed or failed.
-fn scratch() -> TempDir {
-    TempDir::with_prefix("host-sim-rosmap-").expect("scratch dir")
-}
+/// The prefix of this file's scratch directories.
+const SCRATCH: &str = "host-sim-rosmap-";
 
 /// What a map server makes of `DIR/map.yaml` and the image it names.
 struct Loaded {
@@ -123,7 +120,7 @@ fn seed_map(mode: PoseMode) -> MapSnapshot {
 
 #[test]
 fn run_exports_its_final_map_as_a_map_server_pair() {
-    let tmp = scratch();
+    let tmp = scratch_dir(SCRATCH);
     let dir = tmp.path().join("run");
     let seed = seed_path();
     succeed(&[
@@ -143,7 +140,7 @@ fn run_exports_its_final_map_as_a_map_server_pair() {
 
 #[test]
 fn view_exports_the_robots_map_from_its_telemetry() {
-    let tmp = scratch();
+    let tmp = scratch_dir(SCRATCH);
     let dir = tmp.path().join("view");
     let stream = tmp.path().join("stream.bin");
     let seed = seed_path();
@@ -167,7 +164,7 @@ fn view_exports_the_robots_map_from_its_telemetry() {
 #[test]
 fn an_export_that_cannot_be_written_says_where() {
     // A file where the directory should be.
-    let tmp = scratch();
+    let tmp = scratch_dir(SCRATCH);
     let blocker = tmp.path().join("blocker");
     let _ = std::fs::write(&blocker, b"not a directory");
     let seed = seed_path();

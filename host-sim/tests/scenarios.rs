@@ -3,11 +3,13 @@
 
 mod common;
 
-use common::{host_sim, seed_path, SCORED_FIGURES};
+use common::{host_sim, scratch_dir, scratch_file, seed_path, SCORED_FIGURES};
 use host_sim::scenario::SHIPPED;
 use host_sim::{run, Figures, PoseMode, Scenario};
 use std::path::{Path, PathBuf};
-use tempfile::TempDir;
+
+/// The prefix of this file's scratch directories.
+const SCRATCH: &str = "host-sim-scenarios-";
 
 fn shipped(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -31,20 +33,6 @@ fn figures(scenario: &Scenario, mode: PoseMode) -> Figures {
 
 fn seed_text() -> String {
     std::fs::read_to_string(seed_path()).unwrap_or_default()
-}
-
-/// A directory for a test's files, removed when the test ends, passed or failed.
-fn scratch_dir() -> TempDir {
-    TempDir::with_prefix("host-sim-scenarios-").expect("scratch dir")
-}
-
-/// A file in `dir` holding `text`.
-fn scratch(dir: &TempDir, name: &str, text: &str) -> PathBuf {
-    let path = dir.path().join(name);
-    if let Err(e) = std::fs::write(&path, text) {
-        panic!("cannot write {}: {e}", path.display());
-    }
-    path
 }
 
 /// `host-sim run FILE --json` with `extra` arguments: the exit code, stdout and stderr.
@@ -114,8 +102,8 @@ fn a_world_may_have_no_tags() {
     assert_eq!((f.ticks, f.fixes, f.first_fix_s), (485, 0, None), "{f:?}");
     assert!(f.occupied > 100, "the core maps: {f:?}");
     // The command line takes it too.
-    let dir = scratch_dir();
-    let (code, out, err) = run_cli(&scratch(&dir, "tagless.toml", &tagless), &[]);
+    let dir = scratch_dir(SCRATCH);
+    let (code, out, err) = run_cli(&scratch_file(&dir, "tagless.toml", &tagless), &[]);
     assert_eq!(code, Some(0), "{err}");
     let v: serde_json::Value = serde_json::from_str(&out).unwrap_or_default();
     assert_eq!(v["fixes"].as_u64(), Some(0), "{v}");
@@ -274,7 +262,7 @@ fn the_rough_mat_is_the_seed_mat_with_the_failings() {
 
 #[test]
 fn bad_failings_are_refused_by_name() {
-    let dir = scratch_dir();
+    let dir = scratch_dir(SCRATCH);
     let seed = seed_text();
     let slip = "wheel_base_mm = 100\n\n[robot.slip]\nspells_per_min = 4\nspell_s = 0.4\n\
                 speed_loss = 0.3\nskid_mm_per_turn = 5\n";
@@ -332,14 +320,14 @@ fn bad_failings_are_refused_by_name() {
         ),
     ] {
         assert_ne!(text, seed, "{name}: the replacement must apply");
-        let (code, out, err) = run_cli(&scratch(&dir, name, &text), &[]);
+        let (code, out, err) = run_cli(&scratch_file(&dir, name, &text), &[]);
         assert_eq!(code, Some(2), "{name}: {err}");
         assert!(err.contains(field), "{name}: should name `{field}`: {err}");
         assert!(!err.contains("panicked") && out.is_empty(), "{name}: {err}");
     }
     // The same table, well formed, runs.
     let good = seed.replace("wheel_base_mm = 100\n", slip);
-    let (code, _, err) = run_cli(&scratch(&dir, "slip.toml", &good), &[]);
+    let (code, _, err) = run_cli(&scratch_file(&dir, "slip.toml", &good), &[]);
     assert_eq!(code, Some(0), "{err}");
 }
 

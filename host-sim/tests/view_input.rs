@@ -6,27 +6,14 @@
 #[allow(dead_code)]
 mod common;
 
-use common::{hello, host_sim, seed_path};
+use common::{hello, host_sim, scratch_dir, scratch_file, seed_path};
 use host_sim::telemetry::{decode_bytes, TelemetryRecorder, MAX_GRID_SIDE};
 use slam_core::{Counters, FixOutcome};
-use std::path::PathBuf;
 use std::time::{Duration, Instant};
-use tempfile::TempDir;
 use wire::telemetry::{encode, CellChunk, Hello, MapRows, Message, Tick, MAX_FRAME_LEN};
 
-/// A directory for a test's files, removed when the test ends, passed or failed.
-fn scratch_dir() -> TempDir {
-    TempDir::with_prefix("host-sim-view-input-").expect("scratch dir")
-}
-
-/// A file in `dir` holding `bytes`.
-fn scratch(dir: &TempDir, name: &str, bytes: &[u8]) -> PathBuf {
-    let path = dir.path().join(name);
-    if let Err(e) = std::fs::write(&path, bytes) {
-        panic!("cannot write {}: {e}", path.display());
-    }
-    path
-}
+/// The prefix of this file's scratch directories.
+const SCRATCH: &str = "host-sim-view-input-";
 
 fn tick(n: u32) -> Message {
     Message::Tick(Tick {
@@ -68,8 +55,8 @@ fn view_json(path: &std::path::Path) -> (serde_json::Value, Duration) {
 fn a_hello_claiming_a_huge_grid_is_refused_fast() {
     let huge = frame(&Message::Hello(hello(u16::MAX, u16::MAX)));
     assert!(huge.len() <= 50, "{} bytes", huge.len());
-    let dir = scratch_dir();
-    let one = scratch(&dir, "one-hello.bin", &huge);
+    let dir = scratch_dir(SCRATCH);
+    let one = scratch_file(&dir, "one-hello.bin", &huge);
     let (json, took) = view_json(&one);
     assert!(took < Duration::from_secs(5), "took {took:?}");
     assert_eq!(json["hellos_refused"]["count"].as_u64(), Some(1), "{json}");
@@ -86,7 +73,7 @@ fn a_hello_claiming_a_huge_grid_is_refused_fast() {
         fifty.extend(&huge);
         fifty.extend(frame(&tick(i + 1)));
     }
-    let many = scratch(&dir, "fifty-hellos.bin", &fifty);
+    let many = scratch_file(&dir, "fifty-hellos.bin", &fifty);
     let (json, took) = view_json(&many);
     assert!(took < Duration::from_secs(5), "took {took:?}");
     assert_eq!(json["hellos_refused"]["count"].as_u64(), Some(50), "{json}");
@@ -179,8 +166,8 @@ fn the_known_share_follows_the_chunks_without_rescanning_the_map() {
 
 #[test]
 fn a_truth_that_matches_no_tick_scores_nothing() {
-    let dir = scratch_dir();
-    let stream = scratch(&dir, "seed.bin", b"");
+    let dir = scratch_dir(SCRATCH);
+    let stream = scratch_file(&dir, "seed.bin", b"");
     let out = host_sim(&[
         "run",
         seed_path().to_str().unwrap_or_default(),
@@ -211,7 +198,7 @@ fn a_truth_that_matches_no_tick_scores_nothing() {
         String::from_utf8_lossy(&out.stdout).into_owned()
     };
     // Long after the run ends: no tick has a sample near it.
-    let late = scratch(
+    let late = scratch_file(
         &dir,
         "late.jsonl",
         (sample(5000.0) + &sample(5000.1)).as_bytes(),
@@ -234,7 +221,7 @@ fn a_truth_that_matches_no_tick_scores_nothing() {
         );
     }
     // A matching sample scores, under the same keys.
-    let early = scratch(&dir, "early.jsonl", (sample(0.0) + &sample(0.1)).as_bytes());
+    let early = scratch_file(&dir, "early.jsonl", (sample(0.0) + &sample(0.1)).as_bytes());
     let scored: serde_json::Value = serde_json::from_str(&view(&early, true)).unwrap_or_default();
     let keys = |v: &serde_json::Value| {
         v.as_object()

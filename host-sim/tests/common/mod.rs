@@ -3,7 +3,25 @@
 use slam_core::Localiser;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+use tempfile::TempDir;
 use wire::telemetry::{FirmwareVersion, Hello};
+
+/// A directory for a test's files, named from `prefix`, removed when the test ends,
+/// passed or failed.
+#[allow(dead_code)] // not every test file writes files
+pub fn scratch_dir(prefix: &str) -> TempDir {
+    TempDir::with_prefix(prefix).expect("scratch dir")
+}
+
+/// A file `name` in `dir` holding `contents`.
+#[allow(dead_code)] // not every test file writes files
+pub fn scratch_file(dir: &TempDir, name: &str, contents: impl AsRef<[u8]>) -> PathBuf {
+    let path = dir.path().join(name);
+    if let Err(e) = std::fs::write(&path, contents) {
+        panic!("cannot write {}: {e}", path.display());
+    }
+    path
+}
 
 /// The shipped seed scenario.
 pub fn seed_path() -> PathBuf {
