@@ -443,19 +443,26 @@ fn a_depth_sensor_late_for_a_minute_draws_nothing_out_of_place() {
 ///   on the depth sensor where the map is matched, and is held to a narrower gate
 ///   (6.0); a tag read past the picture's edge is no reading.
 ///
-/// Two cases keep a cell: the flow dropping in and out under `slam` leaves one on seed
-/// 6, from a match in the turn on the spot after the minute (a heading 1 degree off,
-/// the matcher's bias in a spin), and the late gyro one on seed 8, drawn in the drive
-/// after the first turn, where a match took the heading 1.6 degrees off while the filter
-/// was unsure of it after the turn's guessed end, so their bound is one cell a seed.
+/// - A gyro dropping in and out under `slam` (0-27 cells on 11 seeds, 0-21 on 13 of
+///   seeds 21-40): the turn held and retried for a minute, the robot standing between,
+///   with the tags in view. Standing, the flow reads only its noise, which integrated
+///   walked the position; the tags corrected it, and the filter learned the flow's
+///   scale from that walk (towards -1: the flow reads motion that is not there), -74,000
+///   ppm by the drive after, which it then drove 7 cm short. Now a stopped robot's flow
+///   holds the position as its gyro holds the heading.
+///
+/// One case keeps a cell: the late gyro, on seed 8, drawn in the drive after the first
+/// turn, where a match took the heading 1.6 degrees off while the filter was unsure of it
+/// after the turn's guessed end, so its bound is one cell a seed.
 #[test]
 fn faults_of_a_minute_on_the_blocked_route_cost_nothing() {
     let scenario = world::shipped::scenario("blocked-route.toml");
     // The pose mode, the fault, and the cells out of place it may add on a seed.
     let cases = [
         (PoseMode::Slam, "flow-wrong@2/60", 0),
-        (PoseMode::Slam, "flow-intermittent@2/60", 1),
+        (PoseMode::Slam, "flow-intermittent@2/60", 0),
         (PoseMode::Slam, "gyro-slow@2/60", 1),
+        (PoseMode::Slam, "gyro-intermittent@2/60", 0),
         (PoseMode::Filter, "flow-intermittent@2/60", 0),
         (PoseMode::Slam, "flow-off@2/60", 0),
         (PoseMode::Slam, "depth-off@2/60", 0),

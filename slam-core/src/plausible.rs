@@ -607,6 +607,13 @@ impl Plausibility {
                 &mut self.moving_flow,
             ),
         };
+        // Stopped, a trusted flow reads its noise alike: the position holds, where
+        // integrating it would walk the position and, corrected by the tags, teach the
+        // filter that the flow reads motion that is not there (its scale towards -1).
+        let flow = match flow {
+            Known::Read(_) if commands.stopped() => Known::Still,
+            f => f,
+        };
         Judged {
             gyro,
             flow,
@@ -1169,20 +1176,29 @@ mod tests {
     }
 
     #[test]
-    fn a_stopped_robot_holds_its_heading_whatever_its_trusted_gyro_reads() {
+    fn a_stopped_robot_holds_its_pose_whatever_its_trusted_gyro_and_flow_read() {
         let mut p = after_a_turn();
-        // The turn has stopped, but the window still holds it: the reading is the motion.
-        let stopping = p.judge(Some(rate(25)), Some(flow(0, 0)), None, Some(STOP), &C);
-        assert_eq!(stopping.gyro, Known::Read(rate(25)));
+        // The turn has stopped, but the window still holds it: the readings are the motion.
+        let stopping = p.judge(Some(rate(25)), Some(flow(0, 1)), None, Some(STOP), &C);
+        assert_eq!(
+            (stopping.gyro, stopping.flow),
+            (Known::Read(rate(25)), Known::Read(flow(0, 1)))
+        );
         p.judge(Some(rate(-5)), Some(flow(1, 0)), None, Some(STOP), &C);
-        // Every command of the window standing: the bias and the noise are no turn.
+        // Every command of the window standing: the bias and the noise are no motion.
         for i in 0..3 {
-            let j = p.judge(Some(rate(20 + i)), Some(flow(i, 0)), None, Some(STOP), &C);
-            assert_eq!((j.trust, j.gyro), (Trust::default(), Known::Still));
+            let j = p.judge(Some(rate(20 + i)), Some(flow(i, -i)), None, Some(STOP), &C);
+            assert_eq!(
+                (j.trust, j.gyro, j.flow),
+                (Trust::default(), Known::Still, Known::Still)
+            );
         }
-        // With the commands not known, the reading is the motion.
-        let unknown = p.judge(Some(rate(23)), Some(flow(0, 0)), None, None, &C);
-        assert_eq!(unknown.gyro, Known::Read(rate(23)));
+        // With the commands not known, the readings are the motion.
+        let unknown = p.judge(Some(rate(23)), Some(flow(2, 0)), None, None, &C);
+        assert_eq!(
+            (unknown.gyro, unknown.flow),
+            (Known::Read(rate(23)), Known::Read(flow(2, 0)))
+        );
     }
 
     #[test]
