@@ -448,8 +448,8 @@ fn a_depth_sensor_late_for_a_minute_draws_nothing_out_of_place() {
 ///   with the tags in view. Standing, the flow reads only its noise, which integrated
 ///   walked the position; the tags corrected it, and the filter learned the flow's
 ///   scale from that walk (towards -1: the flow reads motion that is not there), -74,000
-///   ppm by the drive after, which it then drove 7 cm short. Now a stopped robot's flow
-///   holds the position as its gyro holds the heading.
+///   ppm by the drive after, over which the pose fell 7 cm behind the robot. Now a
+///   stopped robot's flow holds the position as its gyro holds the heading.
 ///
 /// One case keeps a cell: the late gyro, on seed 8, drawn in the drive after the first
 /// turn, where a match took the heading 1.6 degrees off while the filter was unsure of it
