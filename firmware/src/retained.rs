@@ -179,8 +179,12 @@ fn set(p: *mut u32, value: u32) {
 }
 
 /// Takes up the retained state after a reset caused by `cause`, or starts it afresh with
-/// `fresh()` (a new core at the world's start). Call once; a second call panics.
-pub fn open(cause: ResetCause, fresh: impl FnOnce() -> WorldSlam) -> (Saved, Start) {
+/// `fresh` (which builds a new core at the world's start where it is given it, in the
+/// block itself). Call once; a second call panics.
+pub fn open(
+    cause: ResetCause,
+    fresh: impl FnOnce(&mut MaybeUninit<WorldSlam>),
+) -> (Saved, Start) {
     if OPENED.swap(true, portable_atomic::Ordering::AcqRel) {
         defmt::panic!("retained: opened twice");
     }
@@ -203,12 +207,9 @@ pub fn open(cause: ResetCause, fresh: impl FnOnce() -> WorldSlam) -> (Saved, Sta
             )
         }
         Err(_) => {
-            // SAFETY: the state's own field of the block; written whole.
-            unsafe {
-                core::ptr::addr_of_mut!((*block).slam)
-                    .cast::<WorldSlam>()
-                    .write(fresh())
-            };
+            // SAFETY: the state's own field of the block, reached only here and, once
+            // written, through `Saved`; any bytes are a valid `MaybeUninit`.
+            fresh(unsafe { &mut *core::ptr::addr_of_mut!((*block).slam) });
             set(word!(block, magic), MAGIC);
             set(word!(block, image), image_hash());
             set(word!(block, world), world::WORLD_ID);

@@ -18,6 +18,7 @@
 
 #[cfg(feature = "matching")]
 use core::cell::Cell;
+use core::mem::MaybeUninit;
 use embassy_rp::watchdog::Watchdog;
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::channel::Channel;
@@ -162,12 +163,12 @@ static WALLS: embassy_sync::blocking_mutex::Mutex<
 /// A follower of [`REPORTS`].
 pub type ReportReceiver = Receiver<'static, CriticalSectionRawMutex, TickReport, REPORT_READERS>;
 
-/// A new core at the world's start with an empty map: what the retained state starts as
-/// when there is nothing to resume. `Slam::new` returns it by value, so it is built on the
-/// stack once and moved into the retained block (`crate::retained`).
-pub fn fresh_slam() -> WorldSlam {
-    match WorldSlam::new(world::slam_config(LOCALISER), START_POSE) {
-        Ok(slam) => slam,
+/// A new core at the world's start with an empty map, built in `slot`: what the retained
+/// state starts as when there is nothing to resume (`crate::retained`). Built in place, as
+/// a core larger than the stack (a 10 m room's) could not be built on it and moved.
+pub fn fresh_slam(slot: &mut MaybeUninit<WorldSlam>) {
+    match WorldSlam::new_in(slot, world::slam_config(LOCALISER), START_POSE) {
+        Ok(_) => {}
         // The configuration is fixed at build time and tested on the host: this is a bug.
         Err(e) => defmt::panic!("slam: configuration rejected: {}", e),
     }

@@ -1,5 +1,8 @@
 //! The SLAM loop: one pure `step` per tick, called alike by the firmware and the simulator.
 
+use core::mem::MaybeUninit;
+use core::ptr::addr_of_mut;
+
 use crate::angle::Angle;
 use crate::camera_check::{CameraCheck, Picture};
 use crate::estimator::{
@@ -343,43 +346,103 @@ pub struct Slam<const W: usize, const H: usize> {
     zones: ZoneColumns,
 }
 
+/// Builds only while [`Slam::new_in`] writes every field: a field added to the core stops
+/// the build here until it is written there too.
+const _: fn(Slam<1, 1>) = |s| {
+    let Slam {
+        config: _,
+        pose: _,
+        history: _,
+        map: _,
+        counters: _,
+        gate_rejections_in_a_row: _,
+        refusals_from: _,
+        refused_off_range: _,
+        off_range_in_a_row: _,
+        camera: _,
+        estimator: _,
+        #[cfg(feature = "matching")]
+            sweep: _,
+        #[cfg(feature = "matching")]
+            matcher: _,
+        #[cfg(feature = "matching")]
+            defer_matching: _,
+        #[cfg(feature = "matching")]
+            match_due: _,
+        #[cfg(feature = "matching")]
+            matched: _,
+        match_counters: _,
+        last_match: _,
+        map_uncertainty: _,
+        plausibility: _,
+        #[cfg(feature = "tag-range")]
+            zones: _,
+    } = s;
+};
+
 impl<const W: usize, const H: usize> Slam<W, H> {
     /// A robot at `start` with an empty map.
     pub fn new(config: SlamConfig, start: Pose) -> Result<Self, ConfigError> {
+        let mut slot = MaybeUninit::uninit();
+        Self::new_in(&mut slot, config, start)?;
+        // SAFETY: `new_in` wrote every field (it returned `Ok`).
+        #[allow(unsafe_code)]
+        Ok(unsafe { slot.assume_init() })
+    }
+
+    /// [`Slam::new`] built in `slot`, field by field, the map and the matcher in place: a
+    /// robot whose stack is smaller than its core (a 10 m room's) builds it where it lives.
+    #[allow(unsafe_code)]
+    pub fn new_in(
+        slot: &mut MaybeUninit<Self>,
+        config: SlamConfig,
+        start: Pose,
+    ) -> Result<&mut Self, ConfigError> {
         config.validate()?;
-        Ok(Slam {
-            config,
-            pose: start,
-            history: PoseHistory::new(start),
-            map: GridMap::new(config.geometry, config.evidence),
-            counters: Counters::default(),
-            gate_rejections_in_a_row: 0,
-            refusals_from: start,
-            refused_off_range: false,
-            off_range_in_a_row: 0,
-            camera: CameraCheck::new(&config.fix.leap),
-            estimator: Estimator::new(config.estimator),
+        let s = slot.as_mut_ptr();
+        // SAFETY: every field of `*s` is written once, through raw pointers into `slot`
+        // (no reference to the unwritten whole is made); the check before this impl names
+        // them. The map and the matcher write their own fields; `MaybeUninit<T>` has
+        // `T`'s layout. A refused configuration leaves `slot` unwritten as far as its
+        // caller knows (nothing in it needs dropping).
+        unsafe {
             #[cfg(feature = "matching")]
-            sweep: Sweep::new(),
-            #[cfg(feature = "matching")]
-            matcher: Matcher::new(
+            Matcher::new_in(
+                &mut *addr_of_mut!((*s).matcher).cast::<MaybeUninit<Matcher>>(),
                 config.matching.map_or(MatcherConfig::SEED, |m| m.matcher),
                 config.geometry.cell_mm,
             )
-            .map_err(|_| ConfigError::Matching)?,
+            .map_err(|_| ConfigError::Matching)?;
+            GridMap::new_in(
+                &mut *addr_of_mut!((*s).map).cast::<MaybeUninit<GridMap<W, H>>>(),
+                config.geometry,
+                config.evidence,
+            );
+            addr_of_mut!((*s).config).write(config);
+            addr_of_mut!((*s).pose).write(start);
+            addr_of_mut!((*s).history).write(PoseHistory::new(start));
+            addr_of_mut!((*s).counters).write(Counters::default());
+            addr_of_mut!((*s).gate_rejections_in_a_row).write(0);
+            addr_of_mut!((*s).refusals_from).write(start);
+            addr_of_mut!((*s).refused_off_range).write(false);
+            addr_of_mut!((*s).off_range_in_a_row).write(0);
+            addr_of_mut!((*s).camera).write(CameraCheck::new(&config.fix.leap));
+            addr_of_mut!((*s).estimator).write(Estimator::new(config.estimator));
             #[cfg(feature = "matching")]
-            defer_matching: false,
-            #[cfg(feature = "matching")]
-            match_due: false,
-            #[cfg(feature = "matching")]
-            matched: None,
-            match_counters: MatchCounters::default(),
-            last_match: None,
-            map_uncertainty: MapUncertainty::default(),
-            plausibility: Plausibility::default(),
+            {
+                addr_of_mut!((*s).sweep).write(Sweep::new());
+                addr_of_mut!((*s).defer_matching).write(false);
+                addr_of_mut!((*s).match_due).write(false);
+                addr_of_mut!((*s).matched).write(None);
+            }
+            addr_of_mut!((*s).match_counters).write(MatchCounters::default());
+            addr_of_mut!((*s).last_match).write(None);
+            addr_of_mut!((*s).map_uncertainty).write(MapUncertainty::default());
+            addr_of_mut!((*s).plausibility).write(Plausibility::default());
             #[cfg(feature = "tag-range")]
-            zones: ZoneColumns::new(&config.depth, &config.camera),
-        })
+            addr_of_mut!((*s).zones).write(ZoneColumns::new(&config.depth, &config.camera));
+            Ok(slot.assume_init_mut())
+        }
     }
 
     /// Starts over in place (no large move on a small stack): empty map, pose `start`.

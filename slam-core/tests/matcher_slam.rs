@@ -4,6 +4,8 @@
 
 mod reference;
 
+use std::mem::{size_of, MaybeUninit};
+
 use reference::RefPose;
 use slam_core::matcher::SWEEP_TICKS;
 use slam_core::wall_rate::{WallCounters, WallRate};
@@ -62,6 +64,16 @@ fn drive_matching(
 ) -> ((f64, Slam<46, 46>, WallCounters), Vec<StepReport>) {
     let start = Pose::from_mm_mdeg(500, 500, 0);
     let mut slam: Slam<46, 46> = Slam::new(config(localiser, matching), start).unwrap();
+    let (worst, walls, reports) = run_route(&mut slam, pieces);
+    ((worst, slam, walls), reports)
+}
+
+/// Drives `slam` round [`route`]: the largest position error on the way, in millimetres,
+/// the drives at a wall judged, and each tick's report.
+fn run_route(
+    slam: &mut Slam<46, 46>,
+    pieces: Option<usize>,
+) -> (f64, WallCounters, Vec<StepReport>) {
     slam.defer_matching(pieces.is_some());
     let mut reports = Vec::new();
     let mut truth = RefPose {
@@ -95,7 +107,37 @@ fn drive_matching(
         let error = (p.x_um as f64 - truth.x_um).hypot(p.y_um as f64 - truth.y_um) / 1000.0;
         worst = worst.max(error);
     }
-    ((worst, slam, walls.counters), reports)
+    (worst, walls.counters, reports)
+}
+
+#[test]
+fn a_core_built_in_place_over_leftover_ram_is_the_one_built_by_value() {
+    let start = Pose::from_mm_mdeg(500, 500, 0);
+    let config = config(Localiser::Filter, true);
+    let mut by_value: Slam<46, 46> = Slam::new(config, start).unwrap();
+    // What a watchdog reset leaves in the retained block: anything.
+    let mut slot = Box::new(MaybeUninit::<Slam<46, 46>>::uninit());
+    // SAFETY: bytes written into the slot's own memory.
+    unsafe {
+        slot.as_mut_ptr()
+            .cast::<u8>()
+            .write_bytes(0xA5, size_of::<Slam<46, 46>>())
+    };
+    let in_place = Slam::new_in(&mut slot, config, start).unwrap();
+    assert_eq!(format!("{in_place:?}"), format!("{by_value:?}"));
+    let (_, in_place_walls, in_place_reports) = run_route(in_place, Some(3));
+    let (_, by_value_walls, by_value_reports) = run_route(&mut by_value, Some(3));
+    assert_eq!(in_place_reports, by_value_reports);
+    assert_eq!(in_place.map().rows(), by_value.map().rows());
+    assert_eq!(in_place_walls, by_value_walls);
+    assert!(in_place.match_counters().used > 300);
+    let mut refused = Box::new(MaybeUninit::<Slam<46, 46>>::uninit());
+    let r = Slam::new_in(
+        &mut refused,
+        self::config(Localiser::TwoTagFix, true),
+        start,
+    );
+    assert_eq!(r.err(), Some(ConfigError::Matching));
 }
 
 #[test]

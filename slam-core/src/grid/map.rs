@@ -1,5 +1,8 @@
 //! The grid: its cells' log odds, where it lies, and what it believes about each cell.
 
+use core::mem::MaybeUninit;
+use core::ptr::addr_of_mut;
+
 use super::divider::CellDivider;
 use super::view::GridView;
 
@@ -142,6 +145,20 @@ pub struct GridMap<const W: usize, const H: usize> {
     pub(super) cells: [[LogOdds; W]; H],
 }
 
+/// Builds only while [`GridMap::new_in`] writes every field: a field added to the map
+/// stops the build here until it is written there too.
+const _: fn(GridMap<1, 1>) = |g| {
+    let GridMap {
+        geometry: _,
+        evidence: _,
+        divider: _,
+        after_miss: _,
+        columns: _,
+        rows: _,
+        cells: _,
+    } = g;
+};
+
 /// [`GridMap::after_miss`] for `evidence`: each byte's cell plus the miss, within the clamp.
 const fn after_miss(evidence: &Evidence) -> [LogOdds; 256] {
     let (miss, clamp) = (evidence.miss as i32, evidence.clamp as i32);
@@ -177,6 +194,30 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
             columns: W as u32,
             rows: H as u32,
             cells: [[0; W]; H],
+        }
+    }
+
+    /// [`GridMap::new`] built in `slot`: its cells are cleared in place, never passed
+    /// whole through the stack.
+    #[allow(unsafe_code)]
+    pub fn new_in(
+        slot: &mut MaybeUninit<Self>,
+        geometry: GridGeometry,
+        evidence: Evidence,
+    ) -> &mut Self {
+        let g = slot.as_mut_ptr();
+        // SAFETY: every field of `*g` is written once, through raw pointers into `slot`
+        // (no reference to the unwritten whole is made); the check beside the struct names
+        // them. A cell is a byte of log odds, for which zero is a valid value (unknown).
+        unsafe {
+            addr_of_mut!((*g).geometry).write(geometry);
+            addr_of_mut!((*g).evidence).write(evidence);
+            addr_of_mut!((*g).divider).write(CellDivider::new(geometry.cell_mm as i64));
+            addr_of_mut!((*g).after_miss).write(after_miss(&evidence));
+            addr_of_mut!((*g).columns).write(W as u32);
+            addr_of_mut!((*g).rows).write(H as u32);
+            addr_of_mut!((*g).cells).write_bytes(0, 1);
+            slot.assume_init_mut()
         }
     }
 

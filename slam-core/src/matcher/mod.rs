@@ -67,6 +67,9 @@ use score::ScoreTable;
 pub use search::ENDS_A_PIECE;
 pub use sweep::{Sweep, SweepPoint, SweepScan, SWEEP_TICKS};
 
+use core::mem::MaybeUninit;
+use core::ptr::addr_of_mut;
+
 use crate::angle::Angle;
 use crate::frame::BEAMS;
 use crate::grid::GridView;
@@ -296,12 +299,80 @@ pub struct Matcher {
     surface: Surface<SIDE, TURNS>,
     /// The heading in hand's ends, summed by the patterns of their runs.
     patterns: spread::Patterns,
-    work: Option<Work>,
+    /// The match in progress, when `live`. Kept in place rather than as an
+    /// `Option<Work>`: a new one built whole would pass its 28 KB of footprints through
+    /// the stack and be copied in at every match's start.
+    work: Work,
+    live: bool,
 }
+
+impl Work {
+    /// Writes an idle work area at `w`, its arrays element by element.
+    ///
+    /// # Safety
+    /// `w` is aligned and valid for writes.
+    #[allow(unsafe_code)]
+    unsafe fn write_idle(w: *mut Work) {
+        // SAFETY: the caller's `w`; each array element and field is written once, in
+        // place, and `ALL_FIELDS` below names every field.
+        unsafe {
+            let points = addr_of_mut!((*w).points).cast::<SweepPoint>();
+            for i in 0..SWEEP_POINTS {
+                points.add(i).write(SweepPoint::default());
+            }
+            addr_of_mut!((*w).count).write(0);
+            addr_of_mut!((*w).tick).write(0);
+            addr_of_mut!((*w).prediction).write(Pose::default());
+            addr_of_mut!((*w).progress).write(search::Progress::new(0));
+            addr_of_mut!((*w).setup).write(None);
+            let feet = addr_of_mut!((*w).feet).cast::<[Footprint; 2]>();
+            for i in 0..SWEEP_POINTS {
+                feet.add(i).write([Footprint::EMPTY; 2]);
+            }
+        }
+    }
+}
+
+/// Builds only while [`Matcher::new_in`] and [`Work::write_idle`] write every field: a
+/// field added to either struct stops the build here until it is written there too.
+const _: fn(Matcher, Work) = |m, w| {
+    let Matcher {
+        config: _,
+        cell_mm: _,
+        surface: _,
+        patterns: _,
+        work: _,
+        live: _,
+    } = m;
+    let Work {
+        points: _,
+        count: _,
+        tick: _,
+        prediction: _,
+        progress: _,
+        setup: _,
+        feet: _,
+    } = w;
+};
 
 impl Matcher {
     /// A matcher, once its configuration is checked against `cell_mm`.
     pub fn new(config: MatcherConfig, cell_mm: i32) -> Result<Self, MatcherConfigError> {
+        let mut slot = MaybeUninit::uninit();
+        Self::new_in(&mut slot, config, cell_mm)?;
+        // SAFETY: `new_in` wrote every field (it returned `Ok`).
+        #[allow(unsafe_code)]
+        Ok(unsafe { slot.assume_init() })
+    }
+
+    /// [`Matcher::new`] built in `slot`, field by field and its arrays element by element:
+    /// never whole on the stack, where a robot's few tens of kilobytes cannot hold it twice.
+    #[allow(unsafe_code)]
+    pub fn new_in(
+        slot: &mut MaybeUninit<Self>,
+        config: MatcherConfig,
+        cell_mm: i32,
+    ) -> Result<&mut Self, MatcherConfigError> {
         let span = (SIDE as i32 - 1).saturating_mul(config.step_mm);
         if config.step_mm < 1
             || config.step_mdeg < 1
@@ -313,13 +384,20 @@ impl Matcher {
         if config.halving < 1 {
             return Err(MatcherConfigError::Halving);
         }
-        Ok(Matcher {
-            config,
-            cell_mm,
-            surface: [[[0; SIDE]; SIDE]; TURNS],
-            patterns: spread::Patterns::EMPTY,
-            work: None,
-        })
+        let m = slot.as_mut_ptr();
+        // SAFETY: every field of `*m` is written once, through raw pointers into `slot`
+        // (no reference to the unwritten whole is made); the check after `Work::write_idle`
+        // names them.
+        // The surface is `i32`s, for which zero bytes are a valid value.
+        unsafe {
+            addr_of_mut!((*m).config).write(config);
+            addr_of_mut!((*m).cell_mm).write(cell_mm);
+            addr_of_mut!((*m).surface).write_bytes(0, 1);
+            addr_of_mut!((*m).patterns).write(spread::Patterns::EMPTY);
+            Work::write_idle(addr_of_mut!((*m).work));
+            addr_of_mut!((*m).live).write(false);
+            Ok(slot.assume_init_mut())
+        }
     }
 
     /// Headings searched at most.
@@ -365,7 +443,7 @@ impl Matcher {
         sweep: &Sweep<SWEEP_TICKS>,
         beam_angles: &[Angle; BEAMS],
     ) -> Result<(), MatchRefusal> {
-        self.work = None;
+        self.live = false;
         let Some(newest) = sweep.newest() else {
             return Err(MatchRefusal::EmptySweep);
         };
@@ -382,7 +460,7 @@ impl Matcher {
         prediction: &Pose,
         tick: u32,
     ) -> Result<(), MatchRefusal> {
-        self.work = None;
+        self.live = false;
         let mut kept = [SweepPoint::default(); SWEEP_POINTS];
         let mut n = 0;
         for (slot, p) in kept.iter_mut().zip(points) {
@@ -405,28 +483,28 @@ impl Matcher {
         if count < usize::from(self.config.min_points) {
             return Err(MatchRefusal::TooFewPoints);
         }
-        self.work = Some(Work {
-            points,
-            count,
-            tick,
-            prediction,
-            progress: search::Progress::new(count),
-            setup: None,
-            feet: [[Footprint::EMPTY; 2]; SWEEP_POINTS],
-        });
+        let work = &mut self.work;
+        work.points = points;
+        work.count = count;
+        work.tick = tick;
+        work.prediction = prediction;
+        work.progress = search::Progress::new(count);
+        work.setup = None;
+        for feet in work.feet.iter_mut() {
+            *feet = [Footprint::EMPTY; 2];
+        }
+        self.live = true;
         Ok(())
     }
 
     /// Whether the match in progress has every heading searched.
     pub fn searched(&self) -> bool {
-        self.work
-            .as_ref()
-            .is_some_and(|w| w.progress.headings >= TURNS)
+        self.live && self.work.progress.headings >= TURNS
     }
 
     /// Whether a match is started and not yet finished.
     pub fn in_progress(&self) -> bool {
-        self.work.is_some()
+        self.live
     }
 
     /// Does up to `pieces` more pieces of the match in progress against `map`, which
@@ -435,13 +513,14 @@ impl Matcher {
     /// searched (or none is in progress).
     #[inline(never)]
     pub fn search(&mut self, map: &GridView, pieces: usize) -> Result<bool, MatchRefusal> {
-        let Some(work) = self.work.as_mut() else {
+        if !self.live {
             return Ok(true);
-        };
+        }
+        let work = &mut self.work;
         if work.setup.is_none() {
             let cell = map.geometry().cell_mm;
             let Some(window) = Window::new(SIDE, self.config.step_mm, cell) else {
-                self.work = None;
+                self.live = false;
                 return Err(MatchRefusal::Window);
             };
             work.setup = Some(search::Setup {
@@ -468,7 +547,7 @@ impl Matcher {
                 Some(false) => {}
                 Some(true) => return Ok(true),
                 None => {
-                    self.work = None;
+                    self.live = false;
                     return Err(MatchRefusal::Window);
                 }
             }
@@ -479,9 +558,10 @@ impl Matcher {
     /// The match, from the surface the search filled; ends the match in progress.
     #[inline(never)]
     pub fn finish(&mut self) -> Result<Match, MatchRefusal> {
-        let Some(work) = self.work.take() else {
+        if !core::mem::take(&mut self.live) {
             return Err(MatchRefusal::EmptySweep);
-        };
+        }
+        let work = &self.work;
         if work.progress.headings < TURNS {
             return Err(MatchRefusal::Window);
         }
