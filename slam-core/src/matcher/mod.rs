@@ -300,8 +300,8 @@ pub struct Matcher {
     /// The heading in hand's ends, summed by the patterns of their runs.
     patterns: spread::Patterns,
     /// The match in progress, when `live`. Kept in place rather than as an
-    /// `Option<Work>`: a new one built whole would pass its 28 KB of footprints through
-    /// the stack and be copied in at every match's start.
+    /// `Option<Work>`: a new one built whole would pass through the stack and be copied
+    /// in at every match's start.
     work: Work,
     live: bool,
 }
