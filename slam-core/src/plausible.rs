@@ -223,6 +223,18 @@ pub enum Known<T> {
 }
 
 impl<T: Copy> Known<T> {
+    /// [`Known::Still`] in place of a reading when the robot is `stopped` (every command
+    /// of the window standing): the motors cannot move it, so a trusted gyro or flow reads
+    /// only its bias and noise. Integrated, the gyro's would drift the heading by the bias
+    /// not yet learned, and the flow's would walk the position and, corrected by the
+    /// tags, teach the filter that the flow reads motion that is not there.
+    pub fn still_if(self, stopped: bool) -> Self {
+        match self {
+            Known::Read(_) if stopped => Known::Still,
+            k => k,
+        }
+    }
+
     /// The reading to integrate, if any.
     pub fn reading(&self) -> Option<T> {
         match self {
@@ -583,14 +595,8 @@ impl Plausibility {
                 &mut self.moving_gyro,
             ),
         };
-        // Stopped, every command of the window standing: the motors cannot turn the
-        // robot, and a trusted reading is the gyro's bias and noise. The heading holds,
-        // where integrating the reading less the learned bias would drift it by what the
-        // bias is not yet known to.
-        let gyro = match gyro {
-            Known::Read(_) if commands.stopped() => Known::Still,
-            g => g,
-        };
+        let stopped = commands.stopped();
+        let gyro = gyro.still_if(stopped);
         let flow = match trust.flow {
             Some(Doubt::Unmoved) if !drive_held => Known::StandIn(FlowDelta {
                 forward_counts: least_speed.saturating_mul(window),
@@ -607,13 +613,7 @@ impl Plausibility {
                 &mut self.moving_flow,
             ),
         };
-        // Stopped, a trusted flow reads its noise alike: the position holds, where
-        // integrating it would walk the position and, corrected by the tags, teach the
-        // filter that the flow reads motion that is not there (its scale towards -1).
-        let flow = match flow {
-            Known::Read(_) if commands.stopped() => Known::Still,
-            f => f,
-        };
+        let flow = flow.still_if(stopped);
         Judged {
             gyro,
             flow,
