@@ -147,6 +147,8 @@ fn test() -> Result<(), String> {
     let (room_passed, room_failed) = stage::timed("emulator-room", emulate::checks::room_run)?;
     let (matching_passed, matching_failed) =
         stage::timed("emulator-matching", emulate::checks::matching_run)?;
+    let (largest_passed, largest_failed) =
+        stage::timed("emulator-largest-world", emulate::checks::largest_world_run)?;
     let (worlds_passed, worlds_failed) = stage::timed("firmware-worlds", firmware::worlds_run)?;
     let passed = cargo_passed
         + browser_passed
@@ -157,6 +159,7 @@ fn test() -> Result<(), String> {
         + reset_passed
         + room_passed
         + matching_passed
+        + largest_passed
         + worlds_passed;
     let failed = cargo_failed
         + browser_failed
@@ -167,6 +170,7 @@ fn test() -> Result<(), String> {
         + reset_failed
         + room_failed
         + matching_failed
+        + largest_failed
         + worlds_failed;
     println!("tests: {passed} passed, {failed} failed");
     if failed > 0 {
