@@ -147,7 +147,8 @@ pub struct GridMap<const W: usize, const H: usize> {
 
 /// Builds only while [`GridMap::new_in`] writes every field: a field added to the map
 /// stops the build here until it is written there too.
-const _: fn(GridMap<1, 1>) = |g| {
+#[allow(dead_code)]
+fn written_by_new_in<const W: usize, const H: usize>(g: GridMap<W, H>) {
     let GridMap {
         geometry: _,
         evidence: _,
@@ -157,7 +158,7 @@ const _: fn(GridMap<1, 1>) = |g| {
         rows: _,
         cells: _,
     } = g;
-};
+}
 
 /// [`GridMap::after_miss`] for `evidence`: each byte's cell plus the miss, within the clamp.
 const fn after_miss(evidence: &Evidence) -> [LogOdds; 256] {
