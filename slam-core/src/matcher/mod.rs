@@ -314,7 +314,7 @@ impl Work {
     #[allow(unsafe_code)]
     unsafe fn write_idle(w: *mut Work) {
         // SAFETY: the caller's `w`; each array element and field is written once, in
-        // place, and `ALL_FIELDS` below names every field.
+        // place, and the check after this impl names every field.
         unsafe {
             let points = addr_of_mut!((*w).points).cast::<SweepPoint>();
             for i in 0..SWEEP_POINTS {
@@ -387,8 +387,7 @@ impl Matcher {
         let m = slot.as_mut_ptr();
         // SAFETY: every field of `*m` is written once, through raw pointers into `slot`
         // (no reference to the unwritten whole is made); the check after `Work::write_idle`
-        // names them.
-        // The surface is `i32`s, for which zero bytes are a valid value.
+        // names them. The surface is `i32`s, for which zero bytes are a valid value.
         unsafe {
             addr_of_mut!((*m).config).write(config);
             addr_of_mut!((*m).cell_mm).write(cell_mm);
