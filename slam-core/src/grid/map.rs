@@ -186,15 +186,13 @@ impl<const W: usize, const H: usize> GridMap<W, H> {
     pub const HEIGHT: usize = H;
 
     /// An empty (all unknown) grid.
-    pub const fn new(geometry: GridGeometry, evidence: Evidence) -> Self {
-        GridMap {
-            geometry,
-            evidence,
-            divider: CellDivider::new(geometry.cell_mm as i64),
-            after_miss: after_miss(&evidence),
-            columns: W as u32,
-            rows: H as u32,
-            cells: [[0; W]; H],
+    pub fn new(geometry: GridGeometry, evidence: Evidence) -> Self {
+        let mut slot = MaybeUninit::uninit();
+        Self::new_in(&mut slot, geometry, evidence);
+        // SAFETY: `new_in` wrote every field.
+        #[allow(unsafe_code)]
+        unsafe {
+            slot.assume_init()
         }
     }
 
