@@ -20,6 +20,7 @@
 //! | `sensors.tof` `fov_deg`, `max_range_mm`, `noise_mm`, `dropout` | 8 beams at the centres of 8 equal zones; zones with no return |
 //! | `sensors.tof` `noise_per_m_mm` (optional, 0 when absent) | range noise that grows with distance: this much more standard deviation per metre |
 //! | `sensors.tof` `mixed_edge` (optional, 0 when absent) | the chance that a zone spanning a step in depth (a box's edge before a wall, over 100 mm apart) reads a range between the two surfaces |
+//! | `sensors.tof` `rate_hz` (optional, 0 when absent) | the sensor ranges on its own clock at this rate, 1 to 60 (the firmware sets 15), its first frame at a moment the seed sets: each tick takes the newest frame, ranged from the pose of its moment and told its age, as on the robot; 0 ranges a frame at every tick |
 //! | `sensors.flow` `um_per_count`, `scale_error`, `noise_counts`, `quality` | flow counts at 100 Hz; the firmware's calibration, the true scale error, noise per reading, surface quality |
 //! | `sensors.flow` `offset_mm` (optional, `[0, 0]` when absent) | where the sensor sits from the turning axis, `[forward, right]`: off the axis a turn on the spot shows as flow |
 //! | `sensors.gyro` `bias_dps`, `scale_error`, `noise_dps` | yaw rate at 200 Hz: residual bias, scale error, noise per sample |

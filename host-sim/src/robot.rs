@@ -104,8 +104,13 @@ pub struct Robot {
     wheels: WheelSlip,
     /// The camera's latency in microseconds (the scenario's, rounded).
     camera_latency_us: u64,
+    /// The depth sensor's frame period and the moment of its first frame, microseconds
+    /// (period 0: a frame ranged at every tick).
+    depth_period_us: u64,
+    depth_phase_us: u64,
     /// True poses at the last sub-steps, newest last (the newest is `truth`), enough to
-    /// look `camera_latency_us` back; before the start the robot stood at its start.
+    /// look `camera_latency_us` and a depth frame's period back; before the start the
+    /// robot stood at its start.
     past: VecDeque<TruePose>,
     /// Whether the body is touching a wall: set when a wall stops a move, cleared once
     /// the body is more than [`CONTACT_MM`] further off than its radius.
@@ -147,6 +152,8 @@ impl Robot {
             bias_walk_dps: 0.0,
             wheels: WheelSlip::new(scenario.robot.slip.clone()),
             camera_latency_us: camera_latency_us(scenario),
+            depth_period_us: depth_period_us(scenario),
+            depth_phase_us: depth_phase_us(scenario, seed),
             past: VecDeque::from([start]),
             in_contact: false,
             collisions: 0,
@@ -278,9 +285,10 @@ impl Robot {
         }
     }
 
-    /// Keeps the newest true pose, and as many before it as the camera's latency reaches.
+    /// Keeps the newest true pose, and as many before it as the camera's latency or a depth
+    /// frame's period reaches.
     fn remember_truth(&mut self) {
-        let keep = (self.camera_latency_us / SUBSTEP_US) as usize + 2;
+        let keep = (self.camera_latency_us.max(self.depth_period_us) / SUBSTEP_US) as usize + 2;
         self.past.push_back(self.truth);
         while self.past.len() > keep {
             self.past.pop_front();
@@ -368,7 +376,28 @@ impl Robot {
         (flow, gyro)
     }
 
-    /// The depth sensor's 8 beams from the true pose, in millimetres.
+    /// The depth sensor's newest frame and how old it is now, microseconds: ranged from
+    /// the true pose of its own moment, on the sensor's clock (`sensors.tof.rate_hz`).
+    pub fn read_depth_frame(&mut self) -> (DepthScan, u32) {
+        let age_us = self.depth_frame_age_us();
+        let now = self.truth;
+        self.truth = self.truth_ago(age_us);
+        let scan = self.read_depth();
+        self.truth = now;
+        (scan, u32::try_from(age_us).unwrap_or(u32::MAX))
+    }
+
+    /// How long ago the sensor ranged its newest frame, microseconds: its frames come at
+    /// its phase and every period after (before the start, the robot stood at its start).
+    fn depth_frame_age_us(&self) -> u64 {
+        if self.depth_period_us == 0 {
+            return 0;
+        }
+        let now_us = (self.time_s * 1e6).round() as i64;
+        (now_us - self.depth_phase_us as i64).rem_euclid(self.depth_period_us as i64) as u64
+    }
+
+    /// The depth sensor's 8 beams from the true pose now, in millimetres.
     pub fn read_depth(&mut self) -> DepthScan {
         let t = self.scenario.sensors.tof.clone();
         let origin = Vec2::new(self.truth.x_mm, self.truth.y_mm);
@@ -480,6 +509,30 @@ impl Robot {
 pub fn flow_offset_motion(ahead_mm: f64, right_mm: f64, turn_deg: f64) -> (f64, f64) {
     let chord = 2.0 * (turn_deg.to_radians() / 2.0).sin();
     (-chord * right_mm, chord * ahead_mm)
+}
+
+/// A scenario's depth frame period in whole microseconds, 0 for a frame at every tick
+/// (`sensors.tof.rate_hz` validated to 0 or `1..=60`).
+fn depth_period_us(scenario: &Scenario) -> u64 {
+    match scenario.sensors.tof.rate_hz {
+        hz if hz > 0.0 => (1e6 / hz).round() as u64,
+        _ => 0,
+    }
+}
+
+/// When the depth sensor ranges its first frame, microseconds into its first period: set
+/// by the noise seed (a robot's sensor starts when it starts, not on a tick), without a
+/// draw from the noise streams.
+fn depth_phase_us(scenario: &Scenario, seed: u64) -> u64 {
+    let period = depth_period_us(scenario);
+    if period == 0 {
+        return 0;
+    }
+    // SplitMix64's finaliser: seeds 1, 2, 3 spread over the period.
+    let mut z = seed.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    (z ^ (z >> 31)) % period
 }
 
 /// A scenario's camera latency in whole microseconds (validated to `0..=1000` ms).
@@ -739,6 +792,54 @@ mod tests {
             (seen_x - dx).hypot(seen_y - dy) < 0.5,
             "{seen_x} {seen_y} {dx} {dy}"
         );
+    }
+
+    /// A sensor ranging on its own clock: each tick's frame is the newest, younger than a
+    /// period, and the frames' moments lie whole periods apart; ranged from the pose of its
+    /// moment. At rate 0 a frame is ranged at every tick, at its moment.
+    #[test]
+    fn a_depth_frame_is_the_newest_on_the_sensors_clock() {
+        let mut s = scenario(0.0);
+        s.sensors.tof.rate_hz = 15.0;
+        s.sensors.tof.noise_mm = 0.0;
+        s.sensors.tof.noise_per_m_mm = 0.0;
+        s.sensors.tof.dropout = 0.0;
+        let period_us = 66_667_i64;
+        let mut robot = Robot::new(&s, 3);
+        let mut moments = Vec::new();
+        let mut ages = Vec::new();
+        for tick in 1..=20_i64 {
+            robot.advance(0.1, TURN_AND_DRIVE);
+            let then = robot.truth_ago(robot.depth_frame_age_us());
+            let (scan, age) = robot.read_depth_frame();
+            assert!(i64::from(age) < period_us, "tick {tick}: {age} us");
+            // Ranged from the truth of its moment: the same beams as a sensor standing there.
+            let now = robot.truth;
+            robot.truth = then;
+            assert_eq!(scan, robot.read_depth(), "tick {tick}");
+            robot.truth = now;
+            moments.push(tick * 100_000 - i64::from(age));
+            ages.push(age);
+        }
+        for pair in moments.windows(2) {
+            let gap = pair[1] - pair[0];
+            let periods = (gap as f64 / period_us as f64).round() as i64;
+            assert!(
+                periods >= 1 && (gap - periods * period_us).abs() <= 1,
+                "{moments:?}"
+            );
+        }
+        // A 15 Hz sensor beats against 10 Hz ticks: two ages, a third of a tick apart (the
+        // period rounded to a microsecond).
+        let age = |k: usize| i64::from(ages[k]);
+        assert!((age(0) - age(2)).abs() <= 1, "{ages:?}");
+        assert!(((age(0) - age(1)).abs() - 33_333).abs() <= 1, "{ages:?}");
+
+        let mut at_tick = Robot::new(&scenario(0.0), 3);
+        let mut plain = Robot::new(&scenario(0.0), 3);
+        at_tick.advance(0.7, TURN_AND_DRIVE);
+        plain.advance(0.7, TURN_AND_DRIVE);
+        assert_eq!(at_tick.read_depth_frame(), (plain.read_depth(), 0));
     }
 
     #[test]

@@ -468,7 +468,7 @@ fn run_sized_to_fit(
 }
 
 /// The depth frames held to each other where they arrive ([`slam_core::depth_step`]), as
-/// the firmware's depth task holds them: each tick's scan, taken at the tick, against the
+/// the firmware's depth task holds them: each tick's scan, at its own moment, against the
 /// gyro's integral of the frames' rates.
 struct DepthFrames {
     steps: DepthSteps,
@@ -501,7 +501,11 @@ impl DepthFrames {
             return;
         };
         let moment = self.clock_us.wrapping_sub(frame.depth_age_us);
-        let heading = Angle::from_millidegrees(self.yaw / 1_000_000);
+        // The integral at the frame's own moment, the tick's rate taken back over its age.
+        let yaw = self
+            .yaw
+            .saturating_sub(i64::from(rate) * i64::from(frame.depth_age_us));
+        let heading = Angle::from_millidegrees(yaw / 1_000_000);
         frame.depth_doubt = self
             .steps
             .judge(scan, moment, heading, &self.fan, limits)
@@ -572,6 +576,7 @@ fn run_sized<const W: usize, const H: usize>(
         }
         let truth = robot.truth();
         let (flow, gyro) = robot.take_odometry(MIN_FLOW_QUALITY);
+        let (scan, depth_age_us) = robot.read_depth_frame();
         let mut frame = SensorFrame {
             // The first frame is the run's start: no time has passed since a frame before
             // it, and the gyro has not yet read (the firmware's first frame comes a tick
@@ -579,9 +584,9 @@ fn run_sized<const W: usize, const H: usize>(
             dt_us: if ticks.is_empty() { 0 } else { dt_us },
             flow,
             gyro,
-            // The simulated depth sensor reads at the tick.
-            depth: Some(robot.read_depth()),
-            depth_age_us: 0,
+            // The sensor's newest frame, ranged on its own clock.
+            depth: Some(scan),
+            depth_age_us,
             depth_doubt: None,
             tags: robot.read_tags(),
             tags_age_us,

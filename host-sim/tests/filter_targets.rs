@@ -272,6 +272,25 @@ fn the_seed_mat_without_tags_with_the_gyro_reading_short_holds_its_map() {
     );
 }
 
+/// The seed mat without tags with its depth sensor ranging as the robot's does, 15 frames
+/// a second on its own clock (`sensors.tof.rate_hz`; the firmware's `RANGING_HZ`), each
+/// tick taking the newest frame: issue 10's bound on every seed, and issue 11's final and
+/// largest errors.
+#[test]
+#[ignore = "issue 11: not met yet: at the robot's depth rate the first turn's matches pull the heading against the turn; seed 10 inside 38.4 %, 6.25 cm final (README: The depth sensor's own clock)"]
+fn the_seed_mat_without_tags_at_the_robots_depth_rate() {
+    let mut scenario = scenario("seed-mat-no-tags.toml");
+    scenario.sensors.tof.rate_hz = 15.0;
+    let runs = runs_with(&scenario, PoseMode::Slam, |out| out.figures);
+    let all = inside_all("seed-mat-no-tags at 15 Hz", PoseMode::Slam, &runs, 90.0);
+    let final_cm = worst(&runs, |f| f.errors.final_error_cm);
+    let max_cm = worst(&runs, |f| f.errors.max_error_cm);
+    assert!(
+        all >= 98.0 && final_cm <= 3.0 && max_cm <= 5.0,
+        "{all:.2} % inside, final {final_cm:.2} cm, max {max_cm:.2} cm"
+    );
+}
+
 /// Every seed's run of the seed mat without tags with the gyro's scale error turned the
 /// other way.
 fn gyro_reading_short() -> Vec<Figures> {

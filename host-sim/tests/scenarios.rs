@@ -311,6 +311,16 @@ fn bad_failings_are_refused_by_name() {
             "sensors.tof.mixed_edge",
         ),
         (
+            "rate_slow.toml",
+            seed.replace("dropout = 0.02", "dropout = 0.02\nrate_hz = 0.5"),
+            "sensors.tof.rate_hz",
+        ),
+        (
+            "rate_nan.toml",
+            seed.replace("dropout = 0.02", "dropout = 0.02\nrate_hz = nan"),
+            "sensors.tof.rate_hz",
+        ),
+        (
             "slip_missing.toml",
             seed.replace(
                 "wheel_base_mm = 100\n",

@@ -167,6 +167,12 @@ pub struct Tof {
     /// than its centre's. Optional: 0, a zone reads along its centre line.
     #[serde(default)]
     pub mixed_edge: f64,
+    /// Frames the sensor ranges a second, on its own clock (the firmware sets 15, the
+    /// VL53L5CX's most at 8x8 zones), 1 to 60: each tick takes the newest frame, as old as
+    /// the sensor's clock makes it. Optional: 0, a frame ranged at every tick, at its
+    /// moment.
+    #[serde(default)]
+    pub rate_hz: f64,
 }
 
 /// Optical flow, looking at the floor under the robot.
@@ -536,6 +542,9 @@ impl Scenario {
             1000.0,
         );
         c.range("sensors.tof.mixed_edge", s.tof.mixed_edge, 0.0, 1.0);
+        if s.tof.rate_hz != 0.0 {
+            c.range("sensors.tof.rate_hz", s.tof.rate_hz, 1.0, 60.0);
+        }
         c.at_least(
             "sensors.flow.um_per_count",
             s.flow.um_per_count,
