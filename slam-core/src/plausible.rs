@@ -458,7 +458,16 @@ pub struct Plausibility {
     moving_flow: Option<Moving<FlowDelta>>,
     /// What the first frame after the newest command's change read past its motion.
     behind: Behind,
+    /// Forward counts the flow read and no tick integrated, less those integrated and not
+    /// read, over the drive in hand and the few ticks after it ([`Plausibility::settle_flow`]).
+    flow_owed: i32,
+    /// Ticks since the newest command drove, up to [`LATE_TICKS`] and one.
+    since_drive: u8,
 }
+
+/// Ticks after a drive's last command in which the flow's readings of it may still come:
+/// a sensor as late as a command's window.
+const LATE_TICKS: u8 = COMMAND_FRAMES as u8;
 
 impl Plausibility {
     /// Whether a tag's distance agreed with the last tick's scan: its ranges are right.
@@ -619,6 +628,62 @@ impl Plausibility {
             flow,
             trust,
             unfollowed,
+        }
+    }
+
+    /// Integrates the flow's readings of a drive that the checks dropped as they came, late:
+    /// after a drive too short for its readings' lag to be found ([`Doubt::Unmoved`] needs
+    /// a window of it), they come under the next command, read as motion it does not make,
+    /// and the pose is left behind by the whole drive. The counts read and not integrated,
+    /// less those integrated and not read (a drive's window stood in for a sensor found
+    /// behind), are owed; a reading dropped while some are owed, within [`LATE_TICKS`] of
+    /// the drive, stands in for what it pays. Readings doubted for what they are on their
+    /// own, and drops within the still robot's noise, neither owe nor pay. Called on every
+    /// tick after [`Plausibility::judge`] (and [`Plausibility::stand_in_past`]), with the
+    /// tick's reading `read`.
+    #[inline(never)]
+    pub fn settle_flow(
+        &mut self,
+        read: Option<FlowDelta>,
+        judged: &mut Judged,
+        config: &PlausibleConfig,
+    ) {
+        let driving = self.commands.newest().is_some_and(|c| c.speed_mm_s != 0);
+        self.since_drive = match driving {
+            true => 0,
+            false => self.since_drive.saturating_add(1).min(LATE_TICKS + 1),
+        };
+        if self.since_drive > LATE_TICKS {
+            self.flow_owed = 0;
+            return;
+        }
+        let plausible = matches!(
+            judged.trust.flow,
+            None | Some(Doubt::Uncommanded | Doubt::Unmoved)
+        );
+        let Some(r) = read.filter(|_| plausible).map(|f| f.forward_counts) else {
+            return;
+        };
+        let integrated = judged.flow.reading().map_or(0, |f| f.forward_counts);
+        let dropped = r.saturating_sub(integrated);
+        if dropped.unsigned_abs() <= config.still_flow_counts {
+            return;
+        }
+        let most = config.max_flow_counts.saturating_mul(u32::from(LATE_TICKS)) as i32;
+        let owed = self.flow_owed.saturating_add(dropped).clamp(-most, most);
+        // Only a reading of motion pays, and only the way it reads.
+        let moving = r.unsigned_abs() > config.still_flow_counts;
+        let pay = match (moving, r.signum(), dropped.signum()) {
+            (true, 1, 1) => dropped.min(owed.max(0)),
+            (true, -1, -1) => dropped.max(owed.min(0)),
+            _ => 0,
+        };
+        self.flow_owed = owed - pay;
+        if pay != 0 {
+            judged.flow = Known::StandIn(FlowDelta {
+                forward_counts: integrated.saturating_add(pay),
+                right_counts: 0,
+            });
         }
     }
 
@@ -1118,6 +1183,78 @@ mod tests {
         judge(&mut p, 0, 0, DRIVE);
         let j = judge(&mut p, 31_505, 86, DRIVE);
         assert_eq!(j.gyro, Known::StandIn(rate(0)));
+    }
+
+    /// A flow three ticks late: a drive of two ticks reads nothing, too short to be found
+    /// short of its commands, and its counts come under the turn after it, past every
+    /// command the window holds: integrated, as it was owed. A drive long enough to be
+    /// found short has its window stood in, so the counts that come after it owe nothing;
+    /// nor does a still robot's noise.
+    #[test]
+    fn a_drives_late_counts_are_integrated_once() {
+        // As the core judges: a guessed tick's readings past a command stand in for it,
+        // then the flow is settled.
+        let judge = |p: &mut Plausibility, f: i32, c: DriveCommand| {
+            let read = Some(flow(f, 0));
+            let mut j = p.judge(Some(rate(c.turn_mdps)), read, None, Some(c), &C);
+            if j.guessed() {
+                p.stand_in_past(&mut j);
+            }
+            p.settle_flow(read, &mut j, &C);
+            j.flow.reading().map_or(0, |r| r.forward_counts)
+        };
+        let standing = || {
+            let mut p = Plausibility::default();
+            for i in 0..6 {
+                p.judge(
+                    Some(rate(i % 2)),
+                    Some(flow(i % 2, 0)),
+                    None,
+                    Some(STOP),
+                    &C,
+                );
+            }
+            p
+        };
+        // Two ticks of drive read as nothing, then a turn: the late counts are the drive's.
+        let mut p = standing();
+        let hop: Vec<i32> = [
+            (0, DRIVE),
+            (1, DRIVE),
+            (2, TURN),
+            (86, TURN),
+            (85, TURN),
+            (1, TURN),
+        ]
+        .into_iter()
+        .map(|(f, c)| judge(&mut p, f, c))
+        .collect();
+        assert_eq!(hop.get(3..5), Some(&[86, 85][..]), "{hop:?}");
+
+        // A drive found short on its third tick stands in its window: the counts that
+        // come after it are that window's, and owe nothing.
+        let mut p = standing();
+        let mut drive = Vec::new();
+        for (f, c) in [
+            (0, DRIVE),
+            (1, DRIVE),
+            (0, DRIVE),
+            (86, STOP),
+            (85, STOP),
+            (84, STOP),
+        ] {
+            drive.push(judge(&mut p, f, c));
+        }
+        for _ in 0..6 {
+            drive.push(judge(&mut p, 0, STOP));
+        }
+        assert_eq!(drive.get(2..6), Some(&[3 * 86, 0, 0, 0][..]), "{drive:?}");
+        assert_eq!(drive.iter().skip(6).sum::<i32>(), 0, "{drive:?}");
+
+        // Standing, the noise is not motion, however long.
+        let mut p = standing();
+        let still: i32 = (0..20).map(|i| judge(&mut p, 2 * (i % 3) - 2, STOP)).sum();
+        assert_eq!(still, 0);
     }
 
     #[test]

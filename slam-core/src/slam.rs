@@ -586,6 +586,10 @@ impl<const W: usize, const H: usize> Slam<W, H> {
             #[cfg(feature = "matching")]
             self.sweep.anchor();
         }
+        if let Some(limits) = &self.config.plausible {
+            self.plausibility
+                .settle_flow(frame.flow, &mut judged, limits);
+        }
         self.counters.gyro_doubted += trust.gyro.is_some() as u32;
         self.counters.flow_doubted += trust.flow.is_some() as u32;
         self.counters.depth_doubted += trust.depth.is_some() as u32;
