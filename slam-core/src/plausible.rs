@@ -636,7 +636,7 @@ impl Plausibility {
     /// a window of it), they come under the next command, read as motion it does not make,
     /// and the pose is left behind by the whole drive. The counts read and not integrated,
     /// less those integrated and not read (a drive's window stood in for a sensor found
-    /// behind), are owed; a reading dropped while some are owed, within [`LATE_TICKS`] of
+    /// behind), are owed; a reading dropped while some are owed, within three ticks of
     /// the drive, stands in for what it pays. Readings doubted for what they are on their
     /// own, and drops within the still robot's noise, neither owe nor pay. Called on every
     /// tick after [`Plausibility::judge`] (and [`Plausibility::stand_in_past`]), with the
