@@ -669,7 +669,9 @@ impl Plausibility {
         if dropped.unsigned_abs() <= config.still_flow_counts {
             return;
         }
-        let most = config.max_flow_counts.saturating_mul(u32::from(LATE_TICKS)) as i32;
+        // At most what the window's ticks can read: the clamp's bounds stay ordered.
+        let most = config.max_flow_counts.saturating_mul(u32::from(LATE_TICKS));
+        let most = i32::try_from(most).unwrap_or(i32::MAX);
         let owed = self.flow_owed.saturating_add(dropped).clamp(-most, most);
         // Only a reading of motion pays, and only the way it reads.
         let moving = r.unsigned_abs() > config.still_flow_counts;
@@ -1250,6 +1252,24 @@ mod tests {
         }
         assert_eq!(drive.get(2..6), Some(&[3 * 86, 0, 0, 0][..]), "{drive:?}");
         assert_eq!(drive.iter().skip(6).sum::<i32>(), 0, "{drive:?}");
+
+        // Limits as wide as a config may set them bound what is owed without overflow.
+        let wide = PlausibleConfig {
+            max_flow_counts: u32::MAX,
+            ..C
+        };
+        let mut p = standing();
+        let mut late = 0;
+        for (f, c) in [(0, DRIVE), (1, DRIVE), (2, TURN), (300, TURN)] {
+            let read = Some(flow(f, 0));
+            let mut j = p.judge(Some(rate(c.turn_mdps)), read, None, Some(c), &wide);
+            if j.guessed() {
+                p.stand_in_past(&mut j);
+            }
+            p.settle_flow(read, &mut j, &wide);
+            late = j.flow.reading().map_or(0, |r| r.forward_counts);
+        }
+        assert_eq!(late, 300);
 
         // Standing, the noise is not motion, however long.
         let mut p = standing();
