@@ -136,6 +136,7 @@ impl Robot {
             y_mm: scenario.start.y_mm,
             heading_deg: scenario.start.heading_deg,
         };
+        let depth_period_us = depth_period_us(scenario);
         Robot {
             world: World::new(scenario),
             scenario: scenario.clone(),
@@ -152,8 +153,8 @@ impl Robot {
             bias_walk_dps: 0.0,
             wheels: WheelSlip::new(scenario.robot.slip.clone()),
             camera_latency_us: camera_latency_us(scenario),
-            depth_period_us: depth_period_us(scenario),
-            depth_phase_us: depth_phase_us(scenario, seed),
+            depth_period_us,
+            depth_phase_us: depth_phase_us(depth_period_us, seed),
             past: VecDeque::from([start]),
             in_contact: false,
             collisions: 0,
@@ -520,11 +521,10 @@ fn depth_period_us(scenario: &Scenario) -> u64 {
     }
 }
 
-/// When the depth sensor ranges its first frame, microseconds into its first period: set
+/// When the depth sensor ranges its first frame, microseconds into its first `period`: set
 /// by the noise seed (a robot's sensor starts when it starts, not on a tick), without a
 /// draw from the noise streams.
-fn depth_phase_us(scenario: &Scenario, seed: u64) -> u64 {
-    let period = depth_period_us(scenario);
+fn depth_phase_us(period: u64, seed: u64) -> u64 {
     if period == 0 {
         return 0;
     }

@@ -1196,15 +1196,16 @@ mod tests {
     fn a_drives_late_counts_are_integrated_once() {
         // As the core judges: a guessed tick's readings past a command stand in for it,
         // then the flow is settled.
-        let judge = |p: &mut Plausibility, f: i32, c: DriveCommand| {
+        let judge_under = |p: &mut Plausibility, f: i32, c: DriveCommand, config| {
             let read = Some(flow(f, 0));
-            let mut j = p.judge(Some(rate(c.turn_mdps)), read, None, Some(c), &C);
+            let mut j = p.judge(Some(rate(c.turn_mdps)), read, None, Some(c), config);
             if j.guessed() {
                 p.stand_in_past(&mut j);
             }
-            p.settle_flow(read, &mut j, &C);
+            p.settle_flow(read, &mut j, config);
             j.flow.reading().map_or(0, |r| r.forward_counts)
         };
+        let judge = |p: &mut Plausibility, f: i32, c: DriveCommand| judge_under(p, f, c, &C);
         let standing = || {
             let mut p = Plausibility::default();
             for i in 0..6 {
@@ -1259,17 +1260,11 @@ mod tests {
             ..C
         };
         let mut p = standing();
-        let mut late = 0;
-        for (f, c) in [(0, DRIVE), (1, DRIVE), (2, TURN), (300, TURN)] {
-            let read = Some(flow(f, 0));
-            let mut j = p.judge(Some(rate(c.turn_mdps)), read, None, Some(c), &wide);
-            if j.guessed() {
-                p.stand_in_past(&mut j);
-            }
-            p.settle_flow(read, &mut j, &wide);
-            late = j.flow.reading().map_or(0, |r| r.forward_counts);
-        }
-        assert_eq!(late, 300);
+        let late: Vec<i32> = [(0, DRIVE), (1, DRIVE), (2, TURN), (300, TURN)]
+            .into_iter()
+            .map(|(f, c)| judge_under(&mut p, f, c, &wide))
+            .collect();
+        assert_eq!(late.last(), Some(&300), "{late:?}");
 
         // Standing, the noise is not motion, however long.
         let mut p = standing();
