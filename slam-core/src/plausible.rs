@@ -638,9 +638,10 @@ impl Plausibility {
     /// less those integrated and not read (a drive's window stood in for a sensor found
     /// behind), are owed; a reading dropped while some are owed, within three ticks of
     /// the drive, stands in for what it pays. Readings doubted for what they are on their
-    /// own, and drops within the still robot's noise, neither owe nor pay. Called on every
-    /// tick after [`Plausibility::judge`] (and [`Plausibility::stand_in_past`]), with the
-    /// tick's reading `read`.
+    /// own or for more drive than the drive they were read under (a scale gone long: a
+    /// late reading comes under the next command), and drops within the still robot's
+    /// noise, neither owe nor pay. Called on every tick after [`Plausibility::judge`] (and
+    /// [`Plausibility::stand_in_past`]), with the tick's reading `read`.
     #[inline(never)]
     pub fn settle_flow(
         &mut self,
@@ -657,10 +658,12 @@ impl Plausibility {
             self.flow_owed = 0;
             return;
         }
-        let plausible = matches!(
-            judged.trust.flow,
-            None | Some(Doubt::Uncommanded | Doubt::Unmoved)
-        );
+        let plausible = match judged.trust.flow {
+            None | Some(Doubt::Unmoved) => true,
+            // Past the drive it was read under: a sensor reading long, not late.
+            Some(Doubt::Uncommanded) => !driving,
+            Some(_) => false,
+        };
         let Some(r) = read.filter(|_| plausible).map(|f| f.forward_counts) else {
             return;
         };
@@ -1265,6 +1268,23 @@ mod tests {
             .map(|(f, c)| judge_under(&mut p, f, c, &wide))
             .collect();
         assert_eq!(late.last(), Some(&300), "{late:?}");
+
+        // A flow reading long drives the robot no further than its stand-in: the counts
+        // past the drive it was read under are not owed, then or after it.
+        let mut p = standing();
+        let long: Vec<i32> = [
+            (1, STOP),
+            (112, DRIVE),
+            (1, STOP),
+            (112, DRIVE),
+            (0, STOP),
+            (3, STOP),
+            (1, STOP),
+        ]
+        .into_iter()
+        .map(|(f, c)| judge(&mut p, f, c))
+        .collect();
+        assert!(long.iter().all(|&f| f <= 86), "{long:?}");
 
         // Standing, the noise is not motion, however long.
         let mut p = standing();
