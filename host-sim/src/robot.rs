@@ -381,10 +381,7 @@ impl Robot {
     /// the true pose of its own moment, on the sensor's clock (`sensors.tof.rate_hz`).
     pub fn read_depth_frame(&mut self) -> (DepthScan, u32) {
         let age_us = self.depth_frame_age_us();
-        let now = self.truth;
-        self.truth = self.truth_ago(age_us);
-        let scan = self.read_depth();
-        self.truth = now;
+        let scan = self.depth_from(self.truth_ago(age_us));
         (scan, u32::try_from(age_us).unwrap_or(u32::MAX))
     }
 
@@ -400,16 +397,21 @@ impl Robot {
 
     /// The depth sensor's 8 beams from the true pose now, in millimetres.
     pub fn read_depth(&mut self) -> DepthScan {
+        self.depth_from(self.truth)
+    }
+
+    /// The depth sensor's 8 beams as ranged from `pose`, in millimetres.
+    fn depth_from(&mut self, pose: TruePose) -> DepthScan {
         let t = self.scenario.sensors.tof.clone();
-        let origin = Vec2::new(self.truth.x_mm, self.truth.y_mm);
+        let origin = Vec2::new(pose.x_mm, pose.y_mm);
         let mut scan = DepthScan::default();
         for (i, slot) in scan.ranges_mm.iter_mut().enumerate() {
             let zone = t.fov_deg / BEAMS as f64;
             let angle = -t.fov_deg / 2.0 + zone * (i as f64 + 0.5);
-            let dir = Vec2::heading(self.truth.heading_deg + angle);
+            let dir = Vec2::heading(pose.heading_deg + angle);
             let mut hit = self.world.ray(origin, dir);
             if t.mixed_edge > 0.0 {
-                hit = self.mixed_edge(origin, self.truth.heading_deg + angle, zone, hit);
+                hit = self.mixed_edge(origin, pose.heading_deg + angle, zone, hit);
             }
             let sigma = t.noise_mm + t.noise_per_m_mm * hit.unwrap_or(0.0) / 1000.0;
             let noise = noise(&mut self.rng.tof, sigma);
@@ -814,10 +816,7 @@ mod tests {
             let (scan, age) = robot.read_depth_frame();
             assert!(i64::from(age) < period_us, "tick {tick}: {age} us");
             // Ranged from the truth of its moment: the same beams as a sensor standing there.
-            let now = robot.truth;
-            robot.truth = then;
-            assert_eq!(scan, robot.read_depth(), "tick {tick}");
-            robot.truth = now;
+            assert_eq!(scan, robot.depth_from(then), "tick {tick}");
             moments.push(tick * 100_000 - i64::from(age));
             ages.push(age);
         }
