@@ -41,9 +41,10 @@ pub struct EstimatorConfig {
     pub gyro_scale_walk_ppm: u32,
     /// Random walk of the flow sensor's scale per tick, ppm.
     pub flow_scale_walk_ppm: u32,
-    /// Position noise of a [`STALE_PERIOD_US`] with no flow reading, millimetres per axis:
-    /// how far the robot may have gone unseen. A longer frame without one (the time a
-    /// watchdog reset left unseen) costs it in proportion.
+    /// Position noise of a [`STALE_PERIOD_US`] with no flow reading, millimetres along
+    /// the robot's nose (across it, a reading's own): how far the robot may have gone
+    /// unseen. A longer frame without one (the time a watchdog reset left unseen) costs
+    /// it in proportion.
     pub stale_flow_mm: u32,
     /// Heading noise of a [`STALE_PERIOD_US`] with no gyro reading, millidegrees, in
     /// proportion over a longer frame likewise.

@@ -119,6 +119,15 @@ impl Covariance {
         Covariance { m }
     }
 
+    /// Adds `v` to the covariance of `i` with `j` (saturating): the cross term of a
+    /// noise whose variances are added with it, without which the sum may not be definite.
+    pub fn add_covariance(&mut self, i: State, j: State, v: i64) {
+        let (i, j) = (i as usize, j as usize);
+        let next = clamp32(i64::from(self.m[i][j]) + v);
+        self.m[i][j] = next;
+        self.m[j][i] = next;
+    }
+
     /// Entry `(i, j)`.
     pub fn get(&self, i: State, j: State) -> i64 {
         i64::from(self.m[i as usize][j as usize])

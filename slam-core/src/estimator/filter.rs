@@ -248,6 +248,16 @@ impl Estimator {
         }
         // The noise in 1/256 units, its fraction carried to the next tick.
         let mut q = self.process_noise_q8(dx, dy, turn, dt_us, flow, gyro, guess_bound_mdps);
+        if !flow {
+            let across = self.noise.position;
+            along_the_nose(
+                &mut self.p,
+                &mut q,
+                across,
+                before.heading,
+                motion.turn_bits,
+            );
+        }
         for (q, carry) in q.iter_mut().zip(self.noise_carry.iter_mut()) {
             let total = q.saturating_add(i64::from(*carry));
             *carry = (total & 0xFF) as u8;
@@ -480,6 +490,37 @@ impl Estimator {
     }
 }
 
+/// An unseen tick's position noise (no flow reading: its motion lost or stood in by its
+/// command): `q`'s position variances, both the stale figure on the way in, become that
+/// figure along the nose (at `heading` turned half the tick's `turn_bits`, the chord's
+/// direction) and `across` it (a read tick's own, if smaller), and their covariance is
+/// added to `p`: `across I + (stale - across) u u'`, `u = (sin h, cos h)`, in 1/256
+/// units. Such a tick does not know how far the robot went, but a two-wheeled robot goes
+/// only where its nose points: going aside is its heading's error, which the Jacobian
+/// carries. Added before the propagation, the cross term comes out the same (the
+/// Jacobian moves no position column), and the sum is definite with the variances.
+/// Out of line, for the rare unseen tick.
+#[inline(never)]
+fn along_the_nose(
+    p: &mut Covariance,
+    q: &mut [i64; N],
+    across: i64,
+    heading: Angle,
+    turn_bits: i64,
+) {
+    let heading = heading + Angle::from_bits((turn_bits / 2) as u32);
+    let stale = q[State::X as usize];
+    let across = across.min(stale);
+    let extra = stale - across;
+    let (sin, cos) = heading.sin_cos();
+    let (sin, cos) = (i64::from(sin), i64::from(cos));
+    // `extra` stays below 2^42 (a minute unseen), the products' Q16 within 2^16.
+    let share = |a: i64, b: i64| (extra * ((a * b) >> 16)) >> 16;
+    q[State::X as usize] = across + share(sin, sin);
+    q[State::Y as usize] = across + share(cos, cos);
+    p.add_covariance(State::X, State::Y, (share(sin, cos) + 0x80) >> 8);
+}
+
 /// `2^32 / STALE_PERIOD_US`: a frame's time as a share of the stale noises' period, Q16,
 /// is its microseconds times this, shifted down 16 (a multiply rather than a division).
 const STALE_SHARE_PER_US_Q32: u64 = (1 << 32) / config::STALE_PERIOD_US as u64;
@@ -638,12 +679,13 @@ mod tests {
         assert_eq!(added(Some(33_568)), added(None));
     }
 
-    /// The heading's and x's variances after one still frame of `dt_us` with neither input.
+    /// The heading's variance and the position's along the nose (y, at heading 0) after
+    /// one still frame of `dt_us` with neither input.
     fn after_unseen(dt_us: u32) -> (i64, i64) {
         let mut e = Estimator::new(EstimatorConfig::SEED);
-        let (h0, x0) = (
+        let (h0, y0) = (
             e.p.get(State::Heading, State::Heading),
-            e.p.get(State::X, State::X),
+            e.p.get(State::Y, State::Y),
         );
         let still = Pose::default();
         e.predict(
@@ -657,8 +699,54 @@ mod tests {
         );
         (
             e.p.get(State::Heading, State::Heading) - h0,
-            e.p.get(State::X, State::X) - x0,
+            e.p.get(State::Y, State::Y) - y0,
         )
+    }
+
+    /// A tick without flow does not know how far the robot went, only that it went where
+    /// its nose points: the stale noise lies along the nose, and across it only a read
+    /// tick's own, whichever way the robot faces.
+    #[test]
+    fn an_unseen_ticks_position_noise_lies_along_the_nose() {
+        let added = |heading_mdeg: i64| {
+            let mut e = Estimator::new(EstimatorConfig::SEED);
+            let p0 = e.p;
+            let pose = Pose::from_mm_mdeg(0, 0, heading_mdeg);
+            let gain = |e: &Estimator, i: State, j: State| e.p.get(i, j) - p0.get(i, j);
+            e.predict(
+                &pose,
+                &pose,
+                &Motion::default(),
+                config::STALE_PERIOD_US,
+                Known::Lost,
+                Known::Read(()),
+                None,
+            );
+            (
+                gain(&e, State::X, State::X),
+                gain(&e, State::Y, State::Y),
+                gain(&e, State::X, State::Y),
+            )
+        };
+        let position = |mm: i64| square(units::position_from_um(mm * 1000));
+        let stale = position(i64::from(EstimatorConfig::SEED.stale_flow_mm));
+        let near = |v: i64, want: i64| (v - want).abs() <= want / 50 + 2;
+        // Facing +y (heading 0): unsure along y, not across.
+        let (xx, yy, xy) = added(0);
+        assert!(near(yy, stale), "{yy} against {stale}");
+        assert!(xx * 100 < stale && xy == 0, "{xx} {xy}");
+        // Facing +x, the other way round, and backwards the same.
+        for heading in [90_000, -90_000] {
+            let (xx, yy, _) = added(heading);
+            assert!(near(xx, stale) && yy * 100 < stale, "{heading}: {xx} {yy}");
+        }
+        // Half way between: half each, and the two tied along the nose, whose sign says
+        // which diagonal it lies on.
+        let (xx, yy, xy) = added(45_000);
+        assert!(near(xx, stale / 2) && near(yy, stale / 2), "{xx} {yy}");
+        assert!(near(xy, stale / 2), "{xy}");
+        let (_, _, xy) = added(135_000);
+        assert!(near(-xy, stale / 2), "{xy}");
     }
 
     #[test]

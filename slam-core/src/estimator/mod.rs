@@ -3,7 +3,8 @@
 //! Six states: the pose (x, y, heading), the gyro's scale and bias and the flow sensor's
 //! scale. Each tick the odometry, corrected by the learned calibration, moves the pose
 //! ([`crate::odometry`], as in dead reckoning), and the covariance follows it with
-//! process noise that grows with the distance driven and the angle turned. Each tag in a
+//! process noise that grows with the distance driven and the angle turned (a tick without
+//! flow is unsure how far the robot went along its nose, not across it). Each tag in a
 //! picture is then one range-and-bearing update against its listed place, at the
 //! picture's own moment (the pose then, from the history), tested first against a
 //! chi-square gate.

@@ -117,6 +117,8 @@ pub struct TickMotion {
     /// The turn's rate before the scale, bias removed, rad/s: the turn's derivative by the
     /// gyro's scale is this times `dt`.
     pub rate: f64,
+    /// The heading half way through the turn, rad: the way the nose pointed.
+    pub mid: f64,
     /// The tick's length, s.
     pub dt: f64,
     /// The displacement before the flow scale: its derivative by the flow scale, mm.
@@ -139,7 +141,7 @@ pub struct TickMotion {
 ///
 /// The noise: per axis, the flow's own noise, a share of the distance and a length per
 /// radian turned (a stale flow reading instead costs its own larger figure, in proportion
-/// to the frame's time); on the heading, the gyro's noise and a share of the angle turned
+/// to the frame's time, along the nose: across it only the flow's own noise); on the heading, the gyro's noise and a share of the angle turned
 /// (or the stale figure, likewise); a random walk on each calibration state.
 pub fn predict(p: &mut Matrix, c: &EstimatorConfig, m: &TickMotion) {
     let mut f = diagonal([1.0; N]);
@@ -158,21 +160,27 @@ pub fn predict(p: &mut Matrix, c: &EstimatorConfig, m: &TickMotion) {
     let turn = m.turn.abs();
     // A stale input's deviation grows with the time unseen.
     let stale = m.dt * 1e6 / f64::from(STALE_PERIOD_US);
-    let position = if m.flow {
-        (c.position_noise_um as f64 / 1000.0).powi(2)
+    let own = (c.position_noise_um as f64 / 1000.0).powi(2);
+    let (position, across_position) = if m.flow {
+        let read = own
             + (distance * ppm(c.position_noise_ppm)).powi(2)
-            + (c.position_noise_um_per_rad as f64 / 1000.0 * turn).powi(2)
+            + (c.position_noise_um_per_rad as f64 / 1000.0 * turn).powi(2);
+        (read, read)
     } else {
-        (c.stale_flow_mm as f64 * stale).powi(2)
+        let along = (c.stale_flow_mm as f64 * stale).powi(2);
+        (along, own.min(along))
     };
     let heading = if m.gyro {
         mdeg(c.heading_noise_mdeg).powi(2) + (turn * ppm(c.heading_noise_ppm)).powi(2)
     } else {
         (mdeg(c.stale_gyro_mdeg) * stale).powi(2)
     };
+    // `across I + (position - across) u u'`, the nose `u = (sin, cos)` of the mid heading.
+    let (sin, cos) = m.mid.sin_cos();
+    let extra = position - across_position;
     let q = [
-        position,
-        position,
+        across_position + extra * sin * sin,
+        across_position + extra * cos * cos,
         heading,
         ppm(c.gyro_scale_walk_ppm).powi(2),
         (c.gyro_bias_walk_udps as f64 / 1e6).to_radians().powi(2),
@@ -181,6 +189,8 @@ pub fn predict(p: &mut Matrix, c: &EstimatorConfig, m: &TickMotion) {
     for i in 0..N {
         p[i][i] += q[i];
     }
+    p[X][Y] += extra * sin * cos;
+    p[Y][X] += extra * sin * cos;
     bound(p);
 }
 
@@ -565,6 +575,7 @@ impl RefFilter {
             dy: nominal_dy * (1.0 + fs),
             turn,
             rate,
+            mid,
             dt,
             nominal_dx,
             nominal_dy,
