@@ -141,8 +141,9 @@ pub struct TickMotion {
 ///
 /// The noise: per axis, the flow's own noise, a share of the distance and a length per
 /// radian turned (a stale flow reading instead costs its own larger figure, in proportion
-/// to the frame's time, along the nose: across it only the flow's own noise); on the heading, the gyro's noise and a share of the angle turned
-/// (or the stale figure, likewise); a random walk on each calibration state.
+/// to the frame's time, along the nose, and across it only the flow's own noise); on the
+/// heading, the gyro's noise and a share of the angle turned (or the stale figure,
+/// likewise); a random walk on each calibration state.
 pub fn predict(p: &mut Matrix, c: &EstimatorConfig, m: &TickMotion) {
     let mut f = diagonal([1.0; N]);
     f[X][HEADING] = m.dy;
