@@ -135,10 +135,17 @@ pub fn motion(
     }
 }
 
+/// The heading half way through a turn of `turn_bits` from `heading`: the direction of
+/// the arc's chord, which a tick's displacement takes.
+#[inline]
+pub fn chord_heading(heading: Angle, turn_bits: i64) -> Angle {
+    heading + Angle::from_bits((turn_bits / 2) as u32)
+}
+
 /// Applies a tick's motion: the displacement is rotated by the heading half way through the
-/// turn (the arc's chord direction), then the turn is added.
+/// turn (the arc's chord direction, [`chord_heading`]), then the turn is added.
 pub fn apply(pose: &Pose, m: &Motion) -> Pose {
-    let mid = pose.heading + Angle::from_bits((m.turn_bits / 2) as u32);
+    let mid = chord_heading(pose.heading, m.turn_bits);
     let (s, c) = mid.sin_cos();
     // nose = (sin h, cos h), right = (cos h, -sin h)
     let dx = along(m.forward_um, s) + along(m.right_um, c);

@@ -508,7 +508,7 @@ fn along_the_nose(
     heading: Angle,
     turn_bits: i64,
 ) {
-    let heading = heading + Angle::from_bits((turn_bits / 2) as u32);
+    let heading = crate::odometry::chord_heading(heading, turn_bits);
     let stale = q[State::X as usize];
     let across = across.min(stale);
     let extra = stale - across;
