@@ -48,6 +48,7 @@ pub mod fault;
 pub mod fault_matrix;
 pub mod floor;
 pub mod live;
+pub mod match_truth;
 pub mod matching;
 pub mod page;
 pub mod picture;

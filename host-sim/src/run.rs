@@ -3,6 +3,7 @@
 use crate::consistency::{estimator_figures, EstimatorFigures};
 use crate::fault::{Fault, Injector};
 use crate::floor::floor_mask;
+use crate::match_truth::{MatchTruth, MatchTruthFigures};
 use crate::matching::MatchingFigures;
 use crate::record::{
     Belief, CellBelief, MapSnapshot, RunRecord, TickRecord, TrueCalibration, WorldOutline,
@@ -218,6 +219,10 @@ pub struct Figures {
     /// `slam`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub matching: Option<MatchingFigures>,
+    /// The matches against the truth ([`crate::match_truth`]); absent when the core does
+    /// not match.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub match_truth: Option<MatchTruthFigures>,
 }
 
 /// What came of the run's first turn on the spot: closed (the map drawn again at the
@@ -569,6 +574,9 @@ fn run_sized<const W: usize, const H: usize>(
     let mut turn = slam_core::wall_turn::WallTurn::default();
     // The first turn on the spot, kept until it closes ([`Slam::close_first_turn`]).
     let mut first_turn = Box::new(FirstTurn::new());
+    // Each tick's truth by the core's tick count, for the matches placed at their ticks.
+    let mut truths: Vec<(u32, TruePose)> = Vec::new();
+    let mut match_truth = MatchTruth::default();
     while let Some(command) = route.command() {
         if robot.time_s() > MAX_RUN_S {
             route_cut_at_s = Some(robot.time_s());
@@ -598,6 +606,13 @@ fn run_sized<const W: usize, const H: usize>(
         let report = slam.step(&frame);
         let report = slam.measure_walls(&mut walls, &mut turn, &frame, report);
         let report = slam.close_first_turn(&mut first_turn, &frame, report);
+        truths.push((report.counters.ticks, truth));
+        if let Some(m) = slam.last_match() {
+            // The newest tick with its count: the match is this tick's or a recent one's.
+            if let Some((_, t)) = truths.iter().rev().find(|&&(tick, _)| tick == m.tick) {
+                match_truth.add(m, t);
+            }
+        }
         if slam.depth_steps_void() {
             depth_steps.forget_steps();
         }
@@ -692,6 +707,7 @@ fn run_sized<const W: usize, const H: usize>(
         matching: mode
             .matches()
             .then(|| MatchingFigures::of(slam.match_counters(), &walls.counters)),
+        match_truth: mode.matches().then(|| match_truth.figures()),
     };
     let record = RunRecord {
         scenario: scenario.name.clone(),

@@ -62,7 +62,7 @@ fn drives_at_a_near_wall_are_counted() {
     }
 }
 
-/// Modes that do not match report no `matching`.
+/// Modes that do not match report no `matching` and no `match_truth`.
 #[test]
 fn modes_without_matching_report_none() {
     for mode in [
@@ -76,7 +76,9 @@ fn modes_without_matching_report_none() {
             Err(e) => panic!("{mode:?}: {e}"),
         };
         assert_eq!(out.figures.matching, None, "{mode:?}");
+        assert_eq!(out.figures.match_truth, None, "{mode:?}");
         let json = serde_json::to_value(&out.figures).expect("figures serialise");
         assert!(json.get("matching").is_none(), "{mode:?}");
+        assert!(json.get("match_truth").is_none(), "{mode:?}");
     }
 }
