@@ -16,7 +16,8 @@ use serde::Serialize;
 use slam_core::estimator::MatchNoise;
 use slam_core::matcher::{Match, Pins};
 
-use crate::robot::TruePose;
+use crate::robot::{wrap_deg, TruePose};
+use crate::world::Vec2;
 
 /// One direction's errors, summed over a run's matches.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -34,11 +35,12 @@ impl Sums {
     /// the direction's units (millimetres, or degrees for the heading); `widen` turns a
     /// surface deviation into the filter's.
     fn add(&mut self, error: f64, claimed_var: f64, widen: impl Fn(f64) -> f64) {
-        let sd = claimed_var.max(0.0).sqrt();
+        let claimed_var = claimed_var.max(0.0);
+        let sd = claimed_var.sqrt();
         self.n += 1;
         self.error += error;
         self.error_sq += error * error;
-        self.claimed_sq += sd * sd;
+        self.claimed_sq += claimed_var;
         self.inside_surface += u32::from(error.abs() <= 3.0 * sd);
         self.inside_filter += u32::from(error.abs() <= 3.0 * widen(sd));
     }
@@ -108,30 +110,30 @@ impl MatchTruth {
             f64::from(noise.position_um) / 1000.0,
             f64::from(noise.heading_mdeg) / 1000.0,
         );
-        let (dx, dy) = (
+        let error = Vec2::new(
             f64::from(m.pose.x_um) / 1000.0 - truth.x_mm,
             f64::from(m.pose.y_um) / 1000.0 - truth.y_mm,
         );
         let c = &m.covariance;
-        let claimed = |(ux, uy): (f64, f64)| {
-            (ux * ux * c.xx_um2 as f64
-                + 2.0 * ux * uy * c.xy_um2 as f64
-                + uy * uy * c.yy_um2 as f64)
+        let claimed = |u: Vec2| {
+            (u.x * u.x * c.xx_um2 as f64
+                + 2.0 * u.x * u.y * c.xy_um2 as f64
+                + u.y * u.y * c.yy_um2 as f64)
                 / 1e6
         };
-        let nose = unit(truth.heading_deg);
-        let right = (nose.1, -nose.0);
+        let nose = Vec2::heading(truth.heading_deg);
+        let right = Vec2::new(nose.y, -nose.x);
         let widen_mm = |sd: f64| scale * sd + add_mm;
-        let mut count = |d: (f64, f64)| {
+        let mut count = |d: Vec2| {
             let claimed_var = claimed(d);
-            let along = dot(d, nose);
-            if along.abs() >= dot(d, right).abs() {
-                let d = if along < 0.0 { (-d.0, -d.1) } else { d };
-                self.along.add(dot((dx, dy), d), claimed_var, widen_mm);
+            let (along, across) = (dot(d, nose), dot(d, right));
+            // Signed toward the nose, or toward the right.
+            let (sums, toward) = if along.abs() >= across.abs() {
+                (&mut self.along, along)
             } else {
-                let d = if dot(d, right) < 0.0 { (-d.0, -d.1) } else { d };
-                self.across.add(dot((dx, dy), d), claimed_var, widen_mm);
-            }
+                (&mut self.across, across)
+            };
+            sums.add(toward.signum() * dot(error, d), claimed_var, widen_mm);
         };
         match m.pins {
             Pins::All | Pins::PositionOnly => {
@@ -141,14 +143,14 @@ impl MatchTruth {
             Pins::AllButAlong(line) | Pins::AcrossOnly(line) => {
                 // The line's direction is (sin, cos) clockwise from +y; its normal is
                 // pinned.
-                let (ax, ay) = unit(f64::from(line.to_millidegrees()) / 1000.0);
-                count((ay, -ax));
+                let a = Vec2::heading(f64::from(line.to_millidegrees()) / 1000.0);
+                count(Vec2::new(a.y, -a.x));
             }
             Pins::HeadingOnly => {}
         }
         if matches!(m.pins, Pins::All | Pins::AllButAlong(_) | Pins::HeadingOnly) {
             let turned = f64::from(m.pose.heading.to_millidegrees()) / 1000.0 - truth.heading_deg;
-            let error = (turned + 180.0).rem_euclid(360.0) - 180.0;
+            let error = wrap_deg(turned);
             self.heading
                 .add(error, c.hh_mdeg2 as f64 / 1e6, |sd| scale * sd + add_deg);
         }
@@ -164,14 +166,8 @@ impl MatchTruth {
     }
 }
 
-/// The unit vector of a heading in degrees clockwise from +y.
-fn unit(heading_deg: f64) -> (f64, f64) {
-    let h = heading_deg.to_radians();
-    (h.sin(), h.cos())
-}
-
-fn dot(a: (f64, f64), b: (f64, f64)) -> f64 {
-    a.0 * b.0 + a.1 * b.1
+fn dot(a: Vec2, b: Vec2) -> f64 {
+    a.x * b.x + a.y * b.y
 }
 
 #[cfg(test)]
